@@ -1,0 +1,23 @@
+"""closedloop: Lagrange's equations with multipliers for closed-loop multibody systems.
+
+A companion library to Khang, Quyen and Mai Anh (2018), "Influence of initial
+conditions on the motion of the slider-crank mechanism".  Equation numbers in
+docstrings are the paper's.
+"""
+
+from .errors import (ClosedLoopError, ConvergenceError, InputError, IntegrationError,
+                     SingularConfigurationError)
+from .formulations import Augmented, Baumgarte, Minimal, Orthogonal, baumgarte_from_step, formulation_from_name
+from .forces import SwitchedForce
+from .kinematics import InitialState, consistent_initial_state
+from .model import DerivedModel, MultibodyModel, System, derive
+from .simulate import SimulationResult, simulate
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Augmented", "Baumgarte", "Orthogonal", "Minimal", "baumgarte_from_step", "formulation_from_name",
+    "MultibodyModel", "DerivedModel", "derive", "System", "SwitchedForce",
+    "InitialState", "consistent_initial_state", "simulate", "SimulationResult",
+    "ClosedLoopError", "InputError", "ConvergenceError", "SingularConfigurationError", "IntegrationError",
+]

@@ -1,0 +1,70 @@
+"""Generalised forces that are not smooth sympy expressions.
+
+A force that switches (the paper's gas force acts only while x_C' > 0 and
+changes formula at x_C = 5) is described by switching functions ``h_i(t, s, s')``.
+Between two zeros of the h_i the force is smooth; ``mode[i]`` says on which
+side of switch i the state is (``h_i > 0``).  :func:`closedloop.simulate`
+freezes the mode during an integration segment, stops at each zero of an h_i
+with an event, and then chooses the new mode, so that no step crosses a switch
+blindly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["SwitchedForce", "as_switched_force"]
+
+
+class SwitchedForce:
+    """Base class for a piecewise-smooth generalised force.
+
+    Subclasses set :attr:`switch_names` and :attr:`can_stick` and implement
+    :meth:`switching_functions` and :meth:`__call__`.
+
+    Attributes
+    ----------
+    switch_names : tuple of str
+        One readable name per switching function.
+    can_stick : tuple of bool
+        For each switch, whether the state may slide (stick) on its surface:
+        only meaningful for velocity-level switches such as ``x_C' = 0``.
+    """
+
+    switch_names: tuple = ()
+    can_stick: tuple = ()
+
+    def switching_functions(self, t, s, sd) -> np.ndarray:
+        """Values of the switching functions h_i at one state, shape (k,)."""
+        return np.empty(0)
+
+    def __call__(self, t, s, sd, mode) -> np.ndarray:
+        """The generalised force, shape (n,), on the smooth branch ``mode``."""
+        raise NotImplementedError
+
+    def mode_at(self, t, s, sd) -> tuple:
+        """The branch on which a state lies strictly off every switch surface."""
+        return tuple(bool(h > 0) for h in self.switching_functions(t, s, sd))
+
+
+class _SmoothForce(SwitchedForce):
+    """A plain callable ``force(t, s, sd)`` with no switches."""
+
+    def __init__(self, function, n):
+        self.function = function
+        self.n = n
+
+    def __call__(self, t, s, sd, mode=()):
+        value = np.asarray(self.function(t, s, sd), dtype=float)
+        if value.shape != (self.n,):
+            raise ValueError(f"force: must return an array of shape ({self.n},), got {value.shape}")
+        return value
+
+
+def as_switched_force(force, n):
+    """Wrap ``force`` as a :class:`SwitchedForce` (``None`` stays ``None``)."""
+    if force is None or isinstance(force, SwitchedForce):
+        return force
+    if not callable(force):
+        raise TypeError("force: expected a SwitchedForce or a callable force(t, s, sd)")
+    return _SmoothForce(force, n)

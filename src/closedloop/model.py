@@ -1,0 +1,339 @@
+"""Symbolic model of a closed-loop multibody system, and its numeric form.
+
+Section 2 of the paper: a holonomic, scleronomic system is described by n
+redundant coordinates ``s = [q; z]`` (1)-(4), f of them independent (``q``)
+and r = n - f dependent (``z``), tied by r constraints ``f(s) = 0`` (6).
+Lagrange's equations with multipliers read (5), (8)::
+
+    M(s) s'' + Phi_s(s)^T lambda = p1(s, s', t),   p1 = tau - C s' - g   (7)
+
+This module turns a symbolic description (T, Pi, constraints, forces) into
+fast numeric functions for ``M``, ``p1``, ``f``, ``Phi_s`` and
+``Phi_s' s'`` (the term of (10)-(11)).  The derivation runs once per model
+and is cached; every numeric call afterwards is plain numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Callable
+
+import numpy as np
+import sympy as sp
+
+from .errors import InputError
+
+__all__ = ["MultibodyModel", "DerivedModel", "derive", "System"]
+
+
+@dataclass(frozen=True)
+class MultibodyModel:
+    """Symbolic description of a closed-loop multibody system (section 2).
+
+    Parameters
+    ----------
+    coordinates : tuple of sympy.Symbol
+        The n redundant coordinates ``s`` (1).
+    velocities : tuple of sympy.Symbol
+        Symbols standing for the time derivatives of ``coordinates``, in the
+        same order.
+    kinetic_energy : sympy.Expr
+        T(s, s'), quadratic in the velocities.
+    potential_energy : sympy.Expr
+        Pi(s).
+    constraints : tuple of sympy.Expr
+        The r holonomic, scleronomic constraints ``f(s) = 0`` (6).
+    independent : tuple of sympy.Symbol
+        The f independent coordinates ``q`` (2); the rest are ``z`` (3).
+    parameters : tuple of sympy.Symbol, optional
+        Symbols whose numeric values are given later, when the model is bound
+        into a :class:`System`.
+    generalized_forces : tuple of sympy.Expr, optional
+        Smooth non-conservative generalised forces ``tau(t, s, s')`` of (5),
+        one per coordinate.  Forces that are not smooth expressions (switches,
+        tables) are passed as Python callables to :class:`System` instead.
+    time : sympy.Symbol, optional
+        The time symbol used in ``generalized_forces``.
+    """
+
+    coordinates: tuple
+    velocities: tuple
+    kinetic_energy: sp.Expr
+    potential_energy: sp.Expr
+    constraints: tuple
+    independent: tuple
+    parameters: tuple = ()
+    generalized_forces: tuple | None = None
+    time: sp.Symbol = sp.Symbol("t")
+
+    def __post_init__(self):
+        for name in ("coordinates", "velocities", "constraints", "independent", "parameters"):
+            object.__setattr__(self, name, tuple(getattr(self, name)))
+        if self.generalized_forces is not None:
+            object.__setattr__(self, "generalized_forces", tuple(sp.sympify(self.generalized_forces)))
+        n, r = len(self.coordinates), len(self.constraints)
+        if len(self.velocities) != n:
+            raise InputError(f"velocities: need one per coordinate ({n}), got {len(self.velocities)}")
+        if len(set(self.coordinates) | set(self.velocities)) != 2 * n:
+            raise InputError("coordinates and velocities must be 2n distinct symbols")
+        unknown = [q for q in self.independent if q not in self.coordinates]
+        if unknown:
+            raise InputError(f"independent: {unknown} are not among the coordinates")
+        if len(self.independent) + r != n:
+            raise InputError(
+                f"independent: need n - r = {n} - {r} = {n - r} independent coordinates, "
+                f"got {len(self.independent)}"
+            )
+        if self.generalized_forces is not None and len(self.generalized_forces) != n:
+            raise InputError(f"generalized_forces: need one per coordinate ({n})")
+        allowed = set(self.coordinates) | set(self.velocities) | set(self.parameters) | {self.time}
+        geometric = set(self.coordinates) | set(self.parameters)
+        for label, exprs, ok in (
+            ("kinetic_energy", [self.kinetic_energy], allowed - {self.time}),
+            ("potential_energy", [self.potential_energy], geometric),
+            ("constraints", self.constraints, geometric),
+            ("generalized_forces", self.generalized_forces or (), allowed),
+        ):
+            stray = set().union(*(sp.sympify(e).free_symbols for e in exprs)) - ok if exprs else set()
+            if stray:
+                raise InputError(
+                    f"{label}: unexpected symbols {sorted(map(str, stray))}; declare them as "
+                    "parameters (constraints must be holonomic and scleronomic: no velocities, no time)"
+                )
+
+    @property
+    def independent_index(self) -> np.ndarray:
+        """Positions of ``q`` within ``s``."""
+        return np.array([self.coordinates.index(q) for q in self.independent], dtype=int)
+
+    @property
+    def dependent_index(self) -> np.ndarray:
+        """Positions of ``z`` within ``s``."""
+        return np.array([i for i, c in enumerate(self.coordinates) if c not in self.independent], dtype=int)
+
+
+@dataclass(frozen=True)
+class DerivedModel:
+    """Lagrange's equations with multipliers of a :class:`MultibodyModel`.
+
+    Attributes
+    ----------
+    model : MultibodyModel
+    mass_matrix : sympy.Matrix
+        M(s) of (5): the Hessian of T with respect to the velocities.
+    p1 : sympy.Matrix
+        p1 = tau - C s' - g of (7), with tau the smooth symbolic forces only.
+    constraint_vector : sympy.Matrix
+        f(s) of (6).
+    jacobian : sympy.Matrix
+        Phi_s = df/ds, r x n (9).
+    jacobian_rate_product : sympy.Matrix
+        Phi_s' s' of (10)-(11), so that p2 = -Phi_s' s'.
+    dynamics : callable
+        ``dynamics(t, s, sd, p) -> (M, p1, f, Phi_s, Phi_s' s')`` in one call.
+    """
+
+    model: MultibodyModel
+    mass_matrix: sp.Matrix
+    p1: sp.Matrix
+    constraint_vector: sp.Matrix
+    jacobian: sp.Matrix
+    jacobian_rate_product: sp.Matrix
+    dynamics: Callable
+    constraint_functions: Callable
+    energies: Callable
+
+    def equations_of_motion(self, accelerations, multipliers) -> sp.Matrix:
+        """Residual of (5) as sympy expressions: ``M s'' + Phi_s^T lambda - p1``.
+
+        Parameters
+        ----------
+        accelerations : sequence of sympy.Symbol
+            Symbols for s''.
+        multipliers : sequence of sympy.Symbol
+            Symbols for lambda.
+        """
+        sdd = sp.Matrix(accelerations)
+        lam = sp.Matrix(multipliers)
+        return self.mass_matrix * sdd + self.jacobian.T * lam - self.p1
+
+
+@lru_cache(maxsize=None)
+def derive(model: MultibodyModel) -> DerivedModel:
+    """Derive Lagrange's equations with multipliers (5)-(11) and lambdify them.
+
+    Runs once per model (the result is cached on the model, which is immutable).
+    Common subexpressions are eliminated in the generated numeric code.
+
+    Parameters
+    ----------
+    model : MultibodyModel
+
+    Returns
+    -------
+    DerivedModel
+    """
+    s = sp.Matrix(model.coordinates)
+    sd = sp.Matrix(model.velocities)
+    T = sp.sympify(model.kinetic_energy)
+    Pi = sp.sympify(model.potential_energy)
+    n = len(s)
+
+    M = sp.hessian(T, sd)
+    if M.free_symbols & set(model.velocities):
+        raise InputError("kinetic_energy: T must be quadratic in the velocities (M may not depend on them)")
+    # d/dt(dT/ds') - M s'' = (d(M s')/ds) s'  (scleronomic: no explicit time in T)
+    momentum = M * sd
+    coriolis = momentum.jacobian(s) * sd - sp.Matrix([T]).jacobian(s).T      # C(s, s') s'
+    gravity = sp.Matrix([Pi]).jacobian(s).T                                  # g(s)
+    tau = sp.Matrix(model.generalized_forces) if model.generalized_forces else sp.zeros(n, 1)
+    p1 = tau - coriolis - gravity                                            # (7)
+
+    f = sp.Matrix(model.constraints)
+    Phi = f.jacobian(s)                                                      # (9)
+    gamma = (Phi * sd).jacobian(s) * sd                                      # Phi_s' s' of (10)
+
+    args = [model.time, list(model.coordinates), list(model.velocities), list(model.parameters)]
+    dynamics = sp.lambdify(args, [M, list(p1), list(f), Phi, list(gamma)], modules="numpy", cse=True)
+    constraint_functions = sp.lambdify(args[1:2] + args[3:], [list(f), Phi], modules="numpy", cse=True)
+    energies = sp.lambdify(args[1:], [T, Pi], modules="numpy", cse=True)
+    return DerivedModel(model, M, p1, f, Phi, gamma, dynamics, constraint_functions, energies)
+
+
+class System:
+    """A model bound to parameter values and to non-smooth forces.
+
+    Parameters
+    ----------
+    model : MultibodyModel
+    parameter_values : mapping of sympy.Symbol or str to float
+        A value for every symbol in ``model.parameters``.
+    force : SwitchedForce or callable, optional
+        Generalised forces that are not smooth sympy expressions, added to
+        p1 of (7).  A plain callable ``force(t, s, sd) -> array (n,)`` is taken
+        as smooth; a :class:`closedloop.forces.SwitchedForce` declares where it
+        switches, so that :func:`closedloop.simulate` stops at every switch.
+    """
+
+    def __init__(self, model: MultibodyModel, parameter_values=None, force=None):
+        from .forces import as_switched_force
+
+        parameter_values = dict(parameter_values or {})
+        by_name = {str(k): v for k, v in parameter_values.items()}
+        missing = [str(p) for p in model.parameters if str(p) not in by_name]
+        if missing:
+            raise InputError(f"parameter_values: missing values for {missing}")
+        values = np.array([float(by_name[str(p)]) for p in model.parameters], dtype=float)
+        bad = [str(p) for p, v in zip(model.parameters, values) if not np.isfinite(v)]
+        if bad:
+            raise InputError(f"parameter_values: {bad} must be finite numbers")
+        self.model = model
+        self.derived = derive(model)
+        self.parameter_values = values
+        self.force = as_switched_force(force, len(model.coordinates))
+        self.q_index = model.independent_index
+        self.z_index = model.dependent_index
+        self.n = len(model.coordinates)
+        self.r = len(model.constraints)
+        self.f = self.n - self.r
+
+    # -- numeric building blocks ------------------------------------------------
+    def dynamics(self, t, s, sd, mode=()):
+        """``(M, p1, f, Phi_s, Phi_s' s')`` at one state, p1 including the switched force.
+
+        Parameters
+        ----------
+        t : float
+        s, sd : ndarray, shape (n,)
+        mode : tuple of bool
+            The branch of each switch of the force (see :mod:`closedloop.forces`).
+        """
+        M, p1, f, Phi, gamma = self.derived.dynamics(t, s, sd, self.parameter_values)
+        p1 = np.asarray(p1, dtype=float)
+        if self.force is not None:
+            p1 = p1 + self.force(t, s, sd, mode)
+        return (np.asarray(M, dtype=float), p1, np.asarray(f, dtype=float),
+                np.asarray(Phi, dtype=float), np.asarray(gamma, dtype=float))
+
+    def constraints(self, s):
+        """f(s) of (6)."""
+        return np.asarray(self.derived.constraint_functions(s, self.parameter_values)[0], dtype=float)
+
+    def constraints_and_jacobian(self, s):
+        """``(f(s), Phi_s(s))`` of (6) and (9)."""
+        f, Phi = self.derived.constraint_functions(s, self.parameter_values)
+        return np.asarray(f, dtype=float), np.asarray(Phi, dtype=float)
+
+    def jacobian(self, s):
+        """Phi_s(s) of (9), r x n."""
+        return self.constraints_and_jacobian(s)[1]
+
+    def orthogonal_complement(self, s):
+        """R(s) of (20): ``[E; -Phi_z^{-1} Phi_q]``, placed in the order of ``s``.
+
+        Satisfies Phi_s R = 0 (18).  Raises
+        :class:`~closedloop.errors.SingularConfigurationError` if Phi_z is singular.
+        """
+        return _orthogonal_complement(self.jacobian(s), self.q_index, self.z_index)
+
+    def energy(self, s, sd):
+        """T + Pi at one state or at many (arrays of shape (n, N))."""
+        T, Pi = self.derived.energies(s, sd, self.parameter_values)
+        return np.asarray(T, dtype=float) + np.asarray(Pi, dtype=float)
+
+    def kinetic_and_potential_energy(self, s, sd):
+        """``(T, Pi)`` at one state or at many (arrays of shape (n, N))."""
+        T, Pi = self.derived.energies(s, sd, self.parameter_values)
+        return np.asarray(T, dtype=float), np.asarray(Pi, dtype=float)
+
+    def constrained_accelerations(self, t, s, sd, mode=(), p2=None):
+        """Solve the augmented system (12) or (16) for ``(s'', lambda)``.
+
+        Parameters
+        ----------
+        p2 : ndarray, optional
+            Right-hand side of the constraint rows; ``-Phi_s' s'`` of (11) when
+            omitted, Baumgarte's p2~ of (17) when given.
+        """
+        M, p1, f, Phi, gamma = self.dynamics(t, s, sd, mode)
+        rhs2 = -gamma if p2 is None else p2
+        return solve_augmented(M, Phi, p1, rhs2, t)
+
+
+def solve_augmented(M, Phi, p1, p2, t=None):
+    """Solve ``[[M, Phi^T], [Phi, 0]] [s''; lambda] = [p1; p2]`` (12), (16)."""
+    from .errors import SingularConfigurationError
+
+    n, r = M.shape[0], Phi.shape[0]
+    K = np.zeros((n + r, n + r))
+    K[:n, :n] = M
+    K[:n, n:] = Phi.T
+    K[n:, :n] = Phi
+    try:
+        x = np.linalg.solve(K, np.concatenate((p1, p2)))
+    except np.linalg.LinAlgError:
+        where = "" if t is None else f" at t = {t:.6g} s"
+        raise SingularConfigurationError(
+            f"the augmented matrix of (12) is singular{where}: the constraints are dependent "
+            "(a kinematic singularity, cond(Phi_s) = inf); try the minimal formulation or other coordinates"
+        ) from None
+    return x[:n], x[n:]
+
+
+def _orthogonal_complement(Phi, q_index, z_index, t=None):
+    from .errors import SingularConfigurationError
+
+    Phi_q, Phi_z = Phi[:, q_index], Phi[:, z_index]
+    try:
+        X = np.linalg.solve(Phi_z, Phi_q)
+    except np.linalg.LinAlgError:
+        where = "" if t is None else f" at t = {t:.6g} s"
+        raise SingularConfigurationError(
+            f"Phi_z is singular{where} (cond = inf): R of (20) does not exist at this "
+            "configuration; choose other independent coordinates"
+        ) from None
+    R = np.empty((Phi.shape[1], len(q_index)))
+    R[q_index] = np.eye(len(q_index))
+    R[z_index] = -X
+    return R

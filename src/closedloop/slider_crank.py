@@ -1,0 +1,335 @@
+"""The slider-crank mechanism of section 3, its data (Table 1) and the four cases of section 4.
+
+Coordinates ``s = [phi, psi, x]`` = ``[q1, q2, q3]`` of the paper: the crank
+angle phi (independent), the connecting-rod angle psi and the slider position
+x_C (dependent).  The mechanism moves in a vertical plane.
+
+Reading the data
+----------------
+The paper prints ``M = 41,450`` and ``F = -282,857/(6 - x_C) + 62,857`` with
+a Vietnamese decimal comma, and its virtual work ``dA = M dq1 - F dq3``
+leaves the sign of the gas force loose.  :data:`READINGS` names the four
+readings; only ``"decimal-opposing"`` (the default) reproduces the paper's
+findings (see ``shared/paper/NOTES.md`` and the book).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+from functools import lru_cache
+
+import numpy as np
+import sympy as sp
+
+from .errors import InputError
+from .forces import SwitchedForce
+from .kinematics import InitialState, consistent_initial_state
+from .model import MultibodyModel, System
+
+__all__ = [
+    "SliderCrankParameters",
+    "Reading",
+    "READINGS",
+    "DEFAULT_READING",
+    "CASES",
+    "Case",
+    "slider_crank_model",
+    "slider_crank_system",
+    "SliderCrankSystem",
+    "GasForce",
+    "gas_force",
+    "drive_torque",
+    "initial_state",
+    "classify_motion",
+    "COORDINATES",
+]
+
+#: Names of the coordinates in s, in order: q1 = phi, q2 = psi, q3 = x_C.
+COORDINATES = ("phi", "psi", "x")
+
+
+@dataclass(frozen=True)
+class SliderCrankParameters:
+    """Geometry and masses of the slider-crank, Table 1 (after Haug 1989).
+
+    Parameters
+    ----------
+    l1, l2 : float
+        Lengths of crank and connecting rod [m], > 0, with l1 < l2.
+    a1, a2 : float
+        Centre-of-mass positions OC1 and AC2 [m], >= 0.
+    m1, m2, m3 : float
+        Masses of crank, rod and slider [kg], > 0.
+    I1, I2 : float
+        Moments of inertia of crank and rod about their centres of mass [kg m^2], > 0.
+    g : float
+        Gravitational acceleration [m/s^2], >= 0 (the paper does not print it).
+    """
+
+    l1: float = 2.0
+    a1: float = 0.0
+    m1: float = 200.0
+    I1: float = 450.0
+    l2: float = 3.5
+    a2: float = 1.75
+    m2: float = 35.0
+    I2: float = 35.0
+    m3: float = 25.0
+    g: float = 9.81
+
+    def __post_init__(self):
+        units = {"l1": "m", "l2": "m", "a1": "m", "a2": "m", "m1": "kg", "m2": "kg", "m3": "kg",
+                 "I1": "kg m^2", "I2": "kg m^2", "g": "m/s^2"}
+        for item in fields(self):
+            value = getattr(self, item.name)
+            if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
+                raise InputError(f"{item.name}: must be a finite number [{units[item.name]}], got {value!r}")
+            allow_zero = item.name in ("a1", "a2", "g")
+            if value < 0 or (value == 0 and not allow_zero):
+                bound = ">= 0" if allow_zero else "> 0"
+                raise InputError(f"{item.name}: must be {bound} [{units[item.name]}], got {value!r}")
+        if self.l1 >= self.l2:
+            raise InputError(
+                f"l1: must be < l2 = {self.l2:g} m, got {self.l1:g} m: with l1 >= l2 the crank cannot "
+                "turn a full revolution (the rod cannot reach the slider's axis)"
+            )
+        if self.a2 > self.l2:
+            raise InputError(f"a2: must lie on the rod, 0 <= a2 <= l2 = {self.l2:g} m, got {self.a2:g} m")
+
+    def as_dict(self):
+        """Values keyed by the model's parameter names."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One way to read the paper's printed numbers.
+
+    Attributes
+    ----------
+    name : str
+    scale : float
+        1 for the decimal reading (41.450 N m), 1000 for thousands (41 450 N m).
+    force_sign : int
+        +1: the generalised force on x_C is +F, which opposes outward motion;
+        -1: it is -F, as printed in dA = M dq1 - F dq3.
+    description : str
+    """
+
+    name: str
+    scale: float
+    force_sign: int
+    description: str
+
+    @property
+    def torque_mean(self):
+        """Mean drive torque [N m]: 41.450 read as decimal or as thousands."""
+        return 41.450 * self.scale
+
+    @property
+    def gas_coefficients(self):
+        """``(282.857, 62.857, 110.000)`` of the gas force, scaled by the reading."""
+        return tuple(c * self.scale for c in (282.857, 62.857, 110.000))
+
+
+READINGS = {
+    r.name: r
+    for r in (
+        Reading("decimal-opposing", 1.0, +1,
+                "decimal comma (M = 41.45 N m), gas force opposing outward motion: reproduces the paper"),
+        Reading("decimal-as-printed", 1.0, -1,
+                "decimal comma (M = 41.45 N m), generalised force -F as printed"),
+        Reading("thousands-opposing", 1000.0, +1,
+                "thousands (M = 41 450 N m), gas force opposing outward motion"),
+        Reading("thousands-as-printed", 1000.0, -1,
+                "thousands (M = 41 450 N m), generalised force -F as printed"),
+    )
+}
+#: The reading that reproduces the paper's four findings.
+DEFAULT_READING = "decimal-opposing"
+
+
+def get_reading(name):
+    """The :class:`Reading` called ``name``, or a clear error."""
+    if isinstance(name, Reading):
+        return name
+    if name not in READINGS:
+        raise InputError(f"reading: unknown {name!r}; choose one of {', '.join(READINGS)}")
+    return READINGS[name]
+
+
+OMEGA = 2.0 * math.pi          # rad/s, the torque's ripple frequency
+TORQUE_RIPPLE = 0.01           # N m, printed with a decimal point in every reading
+
+
+def drive_torque(t, reading=DEFAULT_READING):
+    """Drive torque ``M(t) = 41.450 + 0.01 sin(Omega t)`` [N m], Omega = 2 pi rad/s.
+
+    The mean is scaled by the reading (41 450 N m when read as thousands).
+    """
+    return get_reading(reading).torque_mean + TORQUE_RIPPLE * np.sin(OMEGA * t)
+
+
+def gas_force(x, xdot, reading=DEFAULT_READING):
+    """The gas force F(x_C, x_C') as printed in section 4 [N].
+
+    For ``x_C' > 0``: ``-282.857/(6 - x) + 62.857`` on 1.5 <= x <= 5 and
+    ``-110 [1 - sin 2 pi (x - 5.25)]`` on 5 <= x <= 5.5; zero for x_C' <= 0 and
+    outside the stroke [1.5, 5.5].  The coefficients scale with the reading.
+    The sign here is the printed one (F <= 0); how F enters the equations is
+    the reading's ``force_sign``.
+    """
+    reading = get_reading(reading)
+    a, b, c = reading.gas_coefficients
+    x = np.asarray(x, dtype=float)
+    xdot = np.asarray(xdot, dtype=float)
+    inner = -a / (6.0 - np.minimum(x, 5.0)) + b
+    outer = -c * (1.0 - np.sin(2.0 * np.pi * (x - 5.25)))
+    value = np.where(x <= 5.0, inner, outer)
+    value = np.where((xdot > 0) & (x >= 1.5) & (x <= 5.5), value, 0.0)
+    return value if value.ndim else float(value)
+
+
+class GasForce(SwitchedForce):
+    """The gas force on the slider as a switched generalised force on x_C.
+
+    Switches: ``x_C' = 0`` (the force acts only while the slider moves
+    outward; the slider may stick there) and ``x_C = 5`` (the formula changes).
+    """
+
+    switch_names = ("x_C' = 0", "x_C = 5")
+    can_stick = (True, False)
+
+    def __init__(self, reading=DEFAULT_READING):
+        self.reading = get_reading(reading)
+        self._a, self._b, self._c = self.reading.gas_coefficients
+        self._sign = float(self.reading.force_sign)
+
+    def switching_functions(self, t, s, sd):
+        return np.array([sd[2], s[2] - 5.0])
+
+    def __call__(self, t, s, sd, mode):
+        moving_out, beyond_five = mode
+        x = s[2]
+        value = 0.0
+        if moving_out and 1.5 <= x <= 5.5:
+            if beyond_five:
+                value = -self._c * (1.0 - math.sin(2.0 * math.pi * (x - 5.25)))
+            else:
+                value = -self._a / (6.0 - x) + self._b
+        return np.array([0.0, 0.0, self._sign * value])
+
+
+@lru_cache(maxsize=None)
+def slider_crank_model() -> MultibodyModel:
+    """The symbolic slider-crank of section 3: T, Pi, (27)-(28) and the drive torque.
+
+    The gas force is not here: it switches, so it is a :class:`GasForce`.
+    """
+    phi, psi, x = sp.symbols("phi psi x")
+    dphi, dpsi, dx = sp.symbols("dphi dpsi dx")
+    l1, a1, m1, I1, l2, a2, m2, I2, m3, g = sp.symbols("l1 a1 m1 I1 l2 a2 m2 I2 m3 g")
+    torque_mean, ripple, omega, t = sp.symbols("torque_mean torque_ripple omega t")
+    T = (sp.Rational(1, 2) * (I1 + m1 * a1**2 + m2 * l1**2) * dphi**2
+         + sp.Rational(1, 2) * (I2 + m2 * a2**2) * dpsi**2
+         + sp.Rational(1, 2) * m3 * dx**2
+         - m2 * l1 * a2 * dphi * dpsi * sp.cos(phi - psi))
+    Pi = m1 * g * a1 * sp.sin(phi) + m2 * g * l1 * sp.sin(phi) - m2 * g * a2 * sp.sin(psi)
+    constraints = (l1 * sp.cos(phi) - l2 * sp.cos(psi) - x,      # (27)
+                   l1 * sp.sin(phi) - l2 * sp.sin(psi))          # (28)
+    torque = torque_mean + ripple * sp.sin(omega * t)
+    return MultibodyModel(
+        coordinates=(phi, psi, x), velocities=(dphi, dpsi, dx), kinetic_energy=T,
+        potential_energy=Pi, constraints=constraints, independent=(phi,),
+        parameters=(l1, a1, m1, I1, l2, a2, m2, I2, m3, g, torque_mean, ripple, omega),
+        generalized_forces=(torque, 0, 0), time=t,
+    )
+
+
+def slider_crank_system(parameters=None, reading=DEFAULT_READING, torque=True, gas=True) -> System:
+    """The slider-crank bound to Table 1 (or ``parameters``) and a reading of the data.
+
+    Parameters
+    ----------
+    parameters : SliderCrankParameters, optional
+        Default: Table 1.
+    reading : str or Reading, optional
+        One of :data:`READINGS`; default :data:`DEFAULT_READING`.
+    torque, gas : bool, optional
+        Switch the drive torque or the gas force off (for energy checks).
+    """
+    parameters = SliderCrankParameters() if parameters is None else parameters
+    if not isinstance(parameters, SliderCrankParameters):
+        raise InputError("parameters: expected a SliderCrankParameters")
+    reading = get_reading(reading)
+    values = parameters.as_dict()
+    values.update(torque_mean=reading.torque_mean if torque else 0.0,
+                  torque_ripple=TORQUE_RIPPLE if torque else 0.0, omega=OMEGA)
+    return SliderCrankSystem(parameters, reading, values, GasForce(reading) if gas else None)
+
+
+class SliderCrankSystem(System):
+    """A :class:`~closedloop.model.System` that also remembers its Table 1 data and reading."""
+
+    def __init__(self, parameters, reading, values, force):
+        super().__init__(slider_crank_model(), values, force)
+        self.parameters = parameters
+        self.reading = reading
+
+
+@dataclass(frozen=True)
+class Case:
+    """One of the paper's initial-condition cases (section 4)."""
+
+    number: int
+    phi0: float
+    dphi0: float
+    finding: str
+
+
+#: The four cases of section 4 and the paper's finding for each.
+CASES = {
+    1: Case(1, math.pi, 1.0, "oscillation"),
+    2: Case(2, math.pi / 2, 1.0, "full rotation"),
+    3: Case(3, math.pi, 0.5, "oscillation"),
+    4: Case(4, math.pi, 1.5, "full rotation"),
+}
+
+
+def get_case(number):
+    """The :class:`Case` numbered ``number`` (1-4), or a clear error."""
+    if number not in CASES:
+        raise InputError(f"case: unknown {number!r}; choose 1, 2, 3 or 4")
+    return CASES[number]
+
+
+def initial_state(system, phi0, dphi0) -> InitialState:
+    """Consistent initial values for crank angle phi0 and speed dphi0.
+
+    psi(0) and x_C(0) solve (27)-(28) on the branch with the slider to the
+    right of the crank (psi near pi; at phi0 = pi the slider is at the inner
+    dead centre x_C = l2 - l1), then psi'(0), x_C'(0) follow from (9).
+    """
+    for name, value in (("phi0", phi0), ("dphi0", dphi0)):
+        if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value)):
+            raise InputError(f"phi0, dphi0: {name} must be a finite number, got {value!r}")
+    p = system.parameters
+    psi_guess = math.pi - math.asin(p.l1 * math.sin(phi0) / p.l2)       # exact on this branch
+    x_guess = p.l1 * math.cos(phi0) - p.l2 * math.cos(psi_guess)
+    return consistent_initial_state(system, [phi0], [dphi0], [psi_guess, x_guess])
+
+
+def classify_motion(result, phi0=None) -> str:
+    """``"full rotation"`` if the crank ever turns 2 pi beyond its start, else ``"oscillation"``.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        Its phi must be unwrapped (continuous), as simulate() returns it.
+    phi0 : float, optional
+        Starting angle; default the first output value.
+    """
+    phi = result.coordinate("phi")
+    start = phi[0] if phi0 is None else phi0
+    return "full rotation" if np.max(np.abs(phi - start)) >= 2.0 * math.pi else "oscillation"
