@@ -11,7 +11,7 @@ from .formulations import Augmented, Baumgarte, Minimal, Orthogonal, baumgarte_f
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
 from .model import DerivedModel, MultibodyModel, System, derive
-from .simulate import SimulationResult, simulate
+from .simulation import SimulationResult, simulate
 
 __version__ = "0.1.0"
 

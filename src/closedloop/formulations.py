@@ -93,7 +93,7 @@ class Augmented(_RedundantFormulation):
 
     name = "augmented"
 
-    def accelerations(self, system, t, s, sd, mode=()):
+    def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (12)."""
         M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
         return solve_augmented(M, Phi, p1, -gamma, t)[0]
@@ -118,7 +118,7 @@ class Baumgarte(_RedundantFormulation):
     def __post_init__(self):
         _check_gains(self.alpha, self.beta)
 
-    def accelerations(self, system, t, s, sd, mode=()):
+    def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (16) with Baumgarte's p2~ of (17)."""
         M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
         return solve_augmented(M, Phi, p1, baumgarte_p2(Phi, gamma, f, sd, self.alpha, self.beta), t)[0]
@@ -149,7 +149,7 @@ class Orthogonal(_RedundantFormulation):
     def __post_init__(self):
         _check_gains(self.alpha, self.beta)
 
-    def accelerations(self, system, t, s, sd, mode=()):
+    def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (26)."""
         M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
         R = _orthogonal_complement(Phi, system.q_index, system.z_index, t)
@@ -214,7 +214,7 @@ class Minimal:
         qdd = np.linalg.solve(R.T @ M @ R, R.T @ (p1 - M @ c))
         return qdd, R, c
 
-    def accelerations(self, system, t, s, sd, mode=()):
+    def accelerations(self, system, t, s, sd, mode=None):
         """s'' = R q'' + c at a consistent state."""
         qdd, R, c = self._qdd(system, t, s, sd, mode)
         return R @ qdd + c

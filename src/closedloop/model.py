@@ -239,19 +239,22 @@ class System:
         self.f = self.n - self.r
 
     # -- numeric building blocks ------------------------------------------------
-    def dynamics(self, t, s, sd, mode=()):
+    def dynamics(self, t, s, sd, mode=None):
         """``(M, p1, f, Phi_s, Phi_s' s')`` at one state, p1 including the switched force.
 
         Parameters
         ----------
         t : float
         s, sd : ndarray, shape (n,)
-        mode : tuple of bool
-            The branch of each switch of the force (see :mod:`closedloop.forces`).
+        mode : tuple of bool, optional
+            The branch of each switch of the force (see :mod:`closedloop.forces`);
+            by default the branch the state lies on.
         """
         M, p1, f, Phi, gamma = self.derived.dynamics(t, s, sd, self.parameter_values)
         p1 = np.asarray(p1, dtype=float)
         if self.force is not None:
+            if mode is None:
+                mode = self.force.mode_at(t, s, sd)
             p1 = p1 + self.force(t, s, sd, mode)
         return (np.asarray(M, dtype=float), p1, np.asarray(f, dtype=float),
                 np.asarray(Phi, dtype=float), np.asarray(gamma, dtype=float))
@@ -287,7 +290,7 @@ class System:
         T, Pi = self.derived.energies(s, sd, self.parameter_values)
         return np.asarray(T, dtype=float), np.asarray(Pi, dtype=float)
 
-    def constrained_accelerations(self, t, s, sd, mode=(), p2=None):
+    def constrained_accelerations(self, t, s, sd, mode=None, p2=None):
         """Solve the augmented system (12) or (16) for ``(s'', lambda)``.
 
         Parameters

@@ -83,6 +83,8 @@ class SimulationResult:
     switch_events : list of SwitchEvent
     sticking_intervals : list of (float, float)
         Time intervals spent stuck (see the module's sticking rule).
+    stopped_at : float or None
+        Where ``stop_when`` ended the run early, else None.
     formulation, method : str
     rtol, atol : float
     coordinate_names : tuple of str
@@ -98,6 +100,7 @@ class SimulationResult:
     cpu_time: float
     switch_events: list = field(default_factory=list)
     sticking_intervals: list = field(default_factory=list)
+    stopped_at: float | None = None
     formulation: str = ""
     method: str = ""
     rtol: float = math.nan
@@ -158,8 +161,8 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
 
 
 def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None, method="RK45",
-             rtol=1e-9, atol=1e-9, t_eval=None, multipliers=False, sticking_resolution=0.01,
-             max_segments=100_000, **options):
+             rtol=1e-9, atol=1e-9, t_eval=None, multipliers=False, stop_when=None,
+             sticking_resolution=0.01, max_segments=100_000, **options):
     """Integrate Lagrange's equations with multipliers from a consistent initial state.
 
     Parameters
@@ -181,6 +184,10 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
         Output times; default: the solver's own steps.
     multipliers : bool, optional
         Also compute lambda of (5) at the output times.
+    stop_when : callable, optional
+        ``stop_when(t, s, sd) -> float``: the run ends early, at the time this
+        crosses zero upward (e.g. a speed limit for a run-away motion).  The
+        result's ``stopped_at`` is then that time.
     sticking_resolution : float, optional
         Sampling interval (s) for the release of a stuck state.
     max_segments : int, optional
@@ -204,7 +211,10 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     t_eval = _validate(system, initial_state, t_start, t_end, formulation, method, rtol, atol,
                        t_eval, sticking_resolution, options)
     start = time.process_time()
-    run = _Run(system, formulation, method, rtol, atol, t_eval, t_end, sticking_resolution, options)
+    if stop_when is not None and not callable(stop_when):
+        raise InputError("stop_when: expected a callable stop_when(t, s, sd) -> float")
+    run = _Run(system, formulation, method, rtol, atol, t_eval, t_end, sticking_resolution, options,
+               stop_when)
     run.integrate(t_start, initial_state.s, initial_state.sd, max_segments)
     t, s, sd, modes = run.outputs()
     f_norm = np.empty(t.size)
@@ -218,7 +228,7 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     return SimulationResult(
         t=t, s=s, sd=sd, constraint_error=f_norm, velocity_constraint_error=fd_norm,
         multipliers=lam, nfev=run.nfev, cpu_time=cpu_time, switch_events=run.switch_events,
-        sticking_intervals=run.sticking_intervals, formulation=formulation.name,
+        sticking_intervals=run.sticking_intervals, stopped_at=run.stopped_at, formulation=formulation.name,
         method=method if isinstance(method, str) else method.__name__, rtol=rtol, atol=atol,
         coordinate_names=tuple(str(c) for c in system.model.coordinates),
     )
@@ -227,13 +237,15 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
 class _Run:
     """The segment loop of one simulate() call (no state survives the call)."""
 
-    def __init__(self, system, formulation, method, rtol, atol, t_eval, t_end, resolution, options):
+    def __init__(self, system, formulation, method, rtol, atol, t_eval, t_end, resolution, options,
+                 stop_when=None):
         self.system, self.formulation, self.method = system, formulation, method
         self.rtol, self.atol, self.options = rtol, atol, options
         self.t_eval, self.t_end, self.resolution = t_eval, t_end, resolution
         self.force = system.force
         self.names = self.force.switch_names if self.force is not None else ()
         self.nfev = 0
+        self.stop_when, self.stopped_at = stop_when, None
         self.switch_events, self.sticking_intervals = [], []
         self._pieces = []          # (t, s, sd, mode, stuck) per segment
         self._next_output = 0      # index into t_eval
@@ -305,6 +317,9 @@ class _Run:
                 )
             if event is None:
                 return
+            if event == len(self.names):                   # stop_when fired
+                self.stopped_at = t
+                return
             mode, action = self._decide(t, s, sd, mode, event)
             self.switch_events.append(SwitchEvent(t, self.names[event], action))
             if action == "stuck":
@@ -324,6 +339,8 @@ class _Run:
         events = []
         for i in range(len(self.names)):
             events.append(self._event(unpack, i, mode[i]))
+        if self.stop_when is not None:
+            events.append(self._stop_event(unpack))
         t_eval = None
         if self.t_eval is not None:
             t_eval = self.t_eval[self._next_output:]
@@ -346,7 +363,8 @@ class _Run:
             t_end, y_end = sol.t_events[event][0], sol.y_events[event][0]
         else:
             t_end, y_end = sol.t[-1], sol.y[:, -1]
-        self._store(sol.t, sol.y, unpack, mode, t0)
+        t_out = np.asarray(sol.t, dtype=float)          # solve_ivp gives lists when t_eval is empty
+        self._store(t_out, np.asarray(sol.y, dtype=float).reshape(y0.size, t_out.size), unpack, mode, t0)
         s_end, sd_end = unpack(y_end, t_end)
         return t_end, s_end, sd_end, event
 
@@ -359,6 +377,14 @@ class _Run:
 
         event.terminal = True
         event.direction = -1.0 if on else 1.0
+        return event
+
+    def _stop_event(self, unpack):
+        def event(t, y):
+            return self.stop_when(t, *unpack(y, t))
+
+        event.terminal = True
+        event.direction = 1.0
         return event
 
     def _store(self, t, y, unpack, mode, t0):

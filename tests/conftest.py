@@ -1,0 +1,52 @@
+"""Shared fixtures: the slider-crank of the paper and a pendulum with a known ODE."""
+
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from closedloop import MultibodyModel, System
+from closedloop.slider_crank import slider_crank_system
+
+
+@pytest.fixture(scope="session")
+def slider_crank():
+    """Table 1, the paper's reading of the data, torque and gas force on."""
+    return slider_crank_system()
+
+
+@pytest.fixture(scope="session")
+def conservative_slider_crank():
+    """Table 1 with the drive torque and the gas force switched off."""
+    return slider_crank_system(torque=False, gas=False)
+
+
+def pendulum_model():
+    """A pendulum in redundant coordinates (theta, x, y): x = l sin theta, y = -l cos theta.
+
+    Its exact motion obeys theta'' = -(g/l) sin theta, which the tests integrate
+    independently of the library.
+    """
+    theta, x, y = sp.symbols("theta x y")
+    dtheta, dx, dy = sp.symbols("dtheta dx dy")
+    m, l, g = sp.symbols("m l g")
+    return MultibodyModel(
+        coordinates=(theta, x, y), velocities=(dtheta, dx, dy),
+        kinetic_energy=m * (dx**2 + dy**2) / 2, potential_energy=m * g * y,
+        constraints=(x - l * sp.sin(theta), y + l * sp.cos(theta)),
+        independent=(theta,), parameters=(m, l, g),
+    )
+
+
+@pytest.fixture(scope="session")
+def pendulum():
+    return System(pendulum_model(), {"m": 2.0, "l": 1.5, "g": 9.81})
+
+
+def random_states(count, seed):
+    """Random (s, s') of the slider-crank, not necessarily consistent."""
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        s = np.array([rng.uniform(0, 2 * math.pi), rng.uniform(0.6 * math.pi, 1.4 * math.pi), rng.uniform(1, 6)])
+        yield s, rng.normal(size=3)

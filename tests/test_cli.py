@@ -1,0 +1,83 @@
+"""The closedloop command line: JSON, summary, figure, and one-line errors."""
+
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+from closedloop.cli import main
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "closedloop.cli", *args], capture_output=True, text=True,
+                          timeout=300)
+
+
+def test_json_has_the_promised_fields_and_unwrapped_angles(capsys):
+    assert main(["simulate", "--case", "2", "--json", "--method", "DOP853"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in ("phi0", "dphi0", "t_end", "formulation", "method", "reading", "motion", "final",
+                "max_constraint_error", "cpu_s"):
+        assert key in out
+    assert set(out["final"]) >= {"phi", "psi", "x", "dphi", "dpsi", "dx"}
+    assert (out["t_end"], out["formulation"], out["reading"]) == (20.0, "baumgarte", "decimal-opposing")
+    assert out["phi0"] == pytest.approx(math.pi / 2) and out["dphi0"] == 1.0
+    assert out["motion"] == "full rotation"
+    assert out["final"]["phi"] > out["phi0"] + 2 * math.pi        # unwrapped, not reduced modulo 2 pi
+    assert 1.5 <= out["final"]["x"] <= 5.5
+    assert 0 < out["max_constraint_error"] < 1e-6
+
+
+def test_free_initial_condition_and_options(capsys):
+    assert main(["simulate", "--phi0", "3.14159", "--dphi0", "0.5", "--t-end", "5", "--formulation", "orthogonal",
+                 "--alpha", "10", "--beta", "10", "--method", "LSODA", "--rtol", "1e-8", "--atol", "1e-8",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert (out["formulation"], out["alpha"], out["method"], out["t_end"]) == ("orthogonal", 10.0, "LSODA", 5.0)
+
+
+def test_summary_is_readable(capsys):
+    assert main(["simulate", "--case", "1", "--t-end", "5"]) == 0
+    text = capsys.readouterr().out
+    assert "motion: oscillation" in text and "max |f| (32)" in text
+    assert len(text.splitlines()) <= 8
+
+
+def test_plot_writes_a_png(tmp_path, capsys):
+    path = tmp_path / "case3.png"
+    assert main(["simulate", "--case", "3", "--t-end", "4", "--plot", str(path)]) == 0
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert path.stat().st_size > 20_000
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--case", "7"], "case: unknown 7; choose 1, 2, 3 or 4"),
+    (["--case", "two"], "case: unknown 'two'"),
+    (["--case", "1", "--t-end", "-2"], "t_end: must be > 0"),
+    (["--case", "1", "--rtol", "0"], "rtol: must be > 0"),
+    (["--case", "1", "--atol", "-1"], "atol: must be > 0"),
+    (["--case", "1", "--alpha", "-3"], "alpha: must be a finite number >= 0"),
+    (["--case", "1", "--beta", "-3"], "beta: must be a finite number >= 0"),
+    (["--case", "1", "--formulation", "kane"], "formulation: unknown 'kane'"),
+    (["--case", "1", "--method", "Euler"], "method: unknown 'Euler'"),
+    (["--case", "1", "--reading", "hundreds"], "reading: unknown 'hundreds'"),
+    (["--phi0", "nan", "--dphi0", "1"], "phi0: must be finite"),
+    (["--phi0", "1"], "--phi0, --dphi0: give both"),
+    (["--case", "1", "--frobnicate"], "unrecognized arguments"),
+])
+def test_bad_input_is_one_line_on_stderr_and_a_nonzero_exit(args, message, capsys):
+    assert main(["simulate", *args]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("closedloop: error: ") and message in lines[0]
+
+
+def test_installed_command_prints_no_traceback_on_bad_input():
+    """The same through a real process, as a reader would run it."""
+    done = run("simulate", "--case", "1", "--t-end", "0")
+    assert done.returncode == 2
+    assert done.stderr.strip() == "closedloop: error: t_end: must be > 0 s, got 0"
+    assert "Traceback" not in done.stderr

@@ -1,0 +1,92 @@
+"""The four formulations solve the same motion: against each other and against an independent ODE."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from closedloop import (Augmented, Baumgarte, InputError, Minimal, Orthogonal, baumgarte_from_step,
+                        consistent_initial_state, simulate)
+from closedloop.slider_crank import CASES, initial_state
+
+FORMULATIONS = [Augmented(), Baumgarte(5, 5), Baumgarte(10, 10), Orthogonal(5, 5), Minimal()]
+
+
+def state_at(result, k=-1):
+    return np.concatenate((result.s[:, k], result.sd[:, k]))
+
+
+@pytest.fixture(scope="module")
+def minimal_references(slider_crank):
+    """Minimal coordinates at rtol = atol = 1e-12: the accuracy reference, state at t = 10 s."""
+    refs = {}
+    for number, case in CASES.items():
+        state = initial_state(slider_crank, case.phi0, case.dphi0)
+        result = simulate(slider_crank, state, 10.0, formulation=Minimal(), method="DOP853",
+                          rtol=1e-12, atol=1e-12, t_eval=[10.0])
+        refs[number] = state_at(result)
+    return refs
+
+
+@pytest.mark.parametrize("formulation", FORMULATIONS, ids=lambda f: f"{f.name}{getattr(f, 'alpha', '')}")
+@pytest.mark.parametrize("number", sorted(CASES))
+def test_every_formulation_agrees_with_minimal_coordinates_at_t10(slider_crank, minimal_references,
+                                                                   formulation, number):
+    case = CASES[number]
+    state = initial_state(slider_crank, case.phi0, case.dphi0)
+    result = simulate(slider_crank, state, 10.0, formulation=formulation, method="DOP853",
+                      rtol=1e-10, atol=1e-10, t_eval=[10.0])
+    assert result.t[-1] == 10.0
+    assert np.max(np.abs(state_at(result) - minimal_references[number])) < 1e-6
+
+
+@pytest.mark.parametrize("formulation", [Augmented(), Baumgarte(5, 5), Orthogonal(5, 5), Minimal()],
+                         ids=lambda f: f.name)
+def test_pendulum_in_redundant_coordinates_matches_its_own_ode(pendulum, formulation):
+    """A generic model, not the slider-crank: theta'' = -(g/l) sin theta integrated directly."""
+    g, l = 9.81, 1.5
+    theta0, omega0 = 2.0, 0.5                        # large swing: the nonlinearity matters
+    state = consistent_initial_state(pendulum, [theta0], [omega0], [1.0, 0.0])
+    times = np.linspace(0.0, 5.0, 11)
+    result = simulate(pendulum, state, 5.0, formulation=formulation, method="DOP853",
+                      rtol=1e-11, atol=1e-11, t_eval=times)
+    exact = solve_ivp(lambda t, y: [y[1], -g / l * math.sin(y[0])], (0, 5), [theta0, omega0],
+                      method="DOP853", rtol=1e-13, atol=1e-13, t_eval=times)
+    assert np.max(np.abs(result.coordinate("theta") - exact.y[0])) < 1e-7
+    assert np.max(np.abs(result.velocity("theta") - exact.y[1])) < 1e-7
+    assert np.max(np.abs(result.coordinate("y") + l * np.cos(exact.y[0]))) < 1e-7
+
+
+def test_baumgarte_damps_a_constraint_error_that_augmented_lets_drift(slider_crank):
+    """At a loose tolerance, (17) keeps |f| bounded where (12) lets it grow (13)."""
+    case = CASES[2]
+    state = initial_state(slider_crank, case.phi0, case.dphi0)
+    loose = dict(method="RK45", rtol=1e-5, atol=1e-5)
+    drift = simulate(slider_crank, state, 20.0, formulation=Augmented(), **loose)
+    held = simulate(slider_crank, state, 20.0, formulation=Baumgarte(10, 10), **loose)
+    assert drift.max_constraint_error > 10 * held.max_constraint_error
+    late = drift.t > 10
+    assert np.max(drift.constraint_error[late]) > np.max(drift.constraint_error[~late])  # it grows
+
+
+def test_baumgarte_step_rule():
+    rule = baumgarte_from_step(0.01)
+    assert (rule.alpha, rule.beta) == pytest.approx((100.0, 100.0 * math.sqrt(2)))
+    with pytest.raises(InputError, match="step"):
+        baumgarte_from_step(0.0)
+
+
+def test_multipliers_only_when_asked_and_equal_across_formulations(slider_crank):
+    case = CASES[4]
+    state = initial_state(slider_crank, case.phi0, case.dphi0)
+    times = np.linspace(0, 5, 6)
+    plain = simulate(slider_crank, state, 5.0, formulation=Baumgarte(), t_eval=times)
+    assert plain.multipliers is None
+    options = dict(method="DOP853", rtol=1e-11, atol=1e-11, t_eval=times, multipliers=True)
+    lam_a = simulate(slider_crank, state, 5.0, formulation=Augmented(), **options).multipliers
+    lam_m = simulate(slider_crank, state, 5.0, formulation=Minimal(), **options).multipliers
+    assert lam_a.shape == (2, 6)
+    assert np.max(np.abs(lam_a - lam_m)) < 1e-5 * np.max(np.abs(lam_a))
+    # (31): m3 x'' = Q3 + lambda1, so lambda1 carries the slider's inertia and gas force
+    assert np.max(np.abs(lam_a[0])) > 1.0
