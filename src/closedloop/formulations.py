@@ -22,7 +22,7 @@ import numpy as np
 
 from .errors import InputError
 from .kinematics import solve_dependent
-from .model import _orthogonal_complement, solve_augmented
+from .model import _orthogonal_complement, solve_augmented, solve_small
 
 __all__ = [
     "Augmented",
@@ -70,10 +70,10 @@ class _RedundantFormulation:
         def unpack(y, t=None):
             return y[:n], y[n:]
 
-        unpack.seed = lambda z: None
+        unpack.seed = lambda s_start: None
         return unpack
 
-    def make_rhs(self, system, mode, s_start):
+    def make_rhs(self, system, mode, unpack):
         n = system.n
         accelerations = self.accelerations
 
@@ -179,39 +179,56 @@ class Minimal:
         return np.concatenate((s[system.q_index], sd[system.q_index]))
 
     def unpacker(self, system):
-        """A function ``y -> (s, s')`` that remembers the last z as Newton's guess."""
+        """A function ``y -> (s, s')`` that solves f(q, z) = 0 for z by Newton.
+
+        It keeps the last solution (local to one integration segment): Newton
+        starts from the first-order prediction ``z + R_z (q - q_last)``, and a
+        call at the same y as the last one (an event function evaluated where
+        the right-hand side just was) costs nothing.
+        """
         f, qi, zi = system.f, system.q_index, system.z_index
-        last = {"z": None}
+        last = {"y": None, "s": None, "R": None}
 
         def unpack(y, t=None):
-            q, qd = y[:f], y[f:]
-            s = solve_dependent(system, q, last["z"], t)
-            last["z"] = s[zi].copy()
-            R = _orthogonal_complement(system.jacobian(s), qi, zi, t)
-            return s, R @ qd
+            s, R = unpack_with_R(y, t)
+            return s, R @ y[f:]
 
-        unpack.seed = lambda z: last.__setitem__("z", np.array(z, dtype=float))
+        def unpack_with_R(y, t=None):
+            if last["y"] is not None and np.array_equal(y, last["y"]):
+                return last["s"], last["R"]
+            guess = last["s"][zi]
+            if last["R"] is not None:
+                guess = guess + last["R"][zi] @ (y[:f] - last["s"][qi])
+            s, Phi = solve_dependent(system, y[:f], guess, t, return_jacobian=True)
+            R = _orthogonal_complement(Phi, qi, zi, t)
+            last.update(y=y.copy(), s=s, R=R)
+            return s, R
+
+        def seed(s_start):
+            last.update(y=None, s=np.array(s_start, dtype=float), R=None)
+
+        unpack.seed = seed
+        unpack.with_R = unpack_with_R
         return unpack
 
-    def make_rhs(self, system, mode, s_start):
+    def make_rhs(self, system, mode, unpack):
         f = system.f
-        unpack = self.unpacker(system)
-        unpack.seed(s_start[system.z_index])
 
         def rhs(t, y):
-            s, sd = unpack(y, t)
-            qdd = self._qdd(system, t, s, sd, mode)[0]
-            return np.concatenate((y[f:], qdd))
+            s, R = unpack.with_R(y, t)
+            qd = y[f:]
+            return np.concatenate((qd, self._qdd(system, t, s, R @ qd, mode, R)[0]))
 
         return rhs
 
-    def _qdd(self, system, t, s, sd, mode):
+    def _qdd(self, system, t, s, sd, mode, R=None):
         M, p1, _, Phi, gamma = system.dynamics(t, s, sd, mode)
-        qi, zi = system.q_index, system.z_index
-        R = _orthogonal_complement(Phi, qi, zi, t)
+        zi = system.z_index
+        if R is None:
+            R = _orthogonal_complement(Phi, system.q_index, zi, t)
         c = np.zeros(system.n)
-        c[zi] = np.linalg.solve(Phi[:, zi], -gamma)
-        qdd = np.linalg.solve(R.T @ M @ R, R.T @ (p1 - M @ c))
+        c[zi] = solve_small(Phi[:, zi], -gamma)
+        qdd = solve_small(R.T @ M @ R, R.T @ (p1 - M @ c))
         return qdd, R, c
 
     def accelerations(self, system, t, s, sd, mode=None):

@@ -10,11 +10,12 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import ConvergenceError, InputError, SingularConfigurationError
+from .model import solve_small
 
 __all__ = ["solve_dependent", "dependent_velocities", "consistent_initial_state", "InitialState"]
 
-#: Newton stops when the step is below this, relative to 1 + |z|.
-NEWTON_TOLERANCE = 1e-14
+#: Newton stops when |f| (or its step) is below this, relative to 1 + |s| (or 1 + |z|).
+NEWTON_TOLERANCE = 1e-15
 NEWTON_MAX_ITERATIONS = 25
 
 
@@ -23,7 +24,7 @@ def _where(t):
 
 
 def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
-                    max_iterations=NEWTON_MAX_ITERATIONS):
+                    max_iterations=NEWTON_MAX_ITERATIONS, return_jacobian=False):
     """Solve the constraints ``f(q, z) = 0`` (6) for ``z`` by Newton's method.
 
     Parameters
@@ -36,11 +37,18 @@ def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
         psi near pi puts the slider to the right of the crank).
     t : float, optional
         Time, only to make error messages precise.
+    tolerance : float, optional
+        Newton stops when ``max |f| <= tolerance (1 + max |s|)`` or when its
+        step is below ``tolerance (1 + max |z|)``.
+    return_jacobian : bool, optional
+        Also return Phi_s at the solution (it is computed on the way).
 
     Returns
     -------
     s : ndarray, shape (n,)
         The full coordinate vector with ``s[q_index] = q`` and ``s[z_index] = z``.
+    Phi : ndarray, shape (r, n)
+        Only with ``return_jacobian``.
 
     Raises
     ------
@@ -53,11 +61,14 @@ def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
     s[system.q_index] = q
     s[system.z_index] = z_guess
     zi = system.z_index
+    f_tolerance = tolerance * (1.0 + np.abs(s).max())
     for _ in range(max_iterations):
         f, Phi = system.constraints_and_jacobian(s)
+        if np.abs(f).max() <= f_tolerance:
+            return (s, Phi) if return_jacobian else s
         Phi_z = Phi[:, zi]
         try:
-            step = np.linalg.solve(Phi_z, f)
+            step = solve_small(Phi_z, f)
         except np.linalg.LinAlgError:
             raise SingularConfigurationError(
                 f"Phi_z is singular{_where(t)} at s = {np.array2string(s, precision=6)}: "
@@ -67,8 +78,8 @@ def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
         s[zi] -= step
         if not np.all(np.isfinite(s)):
             break
-        if np.max(np.abs(step)) <= tolerance * (1.0 + np.max(np.abs(s[zi]))):
-            return s
+        if np.abs(step).max() <= tolerance * (1.0 + np.abs(s[zi]).max()):
+            return (s, system.jacobian(s)) if return_jacobian else s
     residual = np.linalg.norm(system.constraints(s)) if np.all(np.isfinite(s)) else np.inf
     raise ConvergenceError(
         f"Newton on f(q, z) = 0 did not converge in {max_iterations} iterations{_where(t)} "

@@ -333,9 +333,9 @@ class _Run:
         """Integrate on one branch until t_end or the next switch."""
         system, formulation = self.system, self.formulation
         y0 = formulation.pack(system, s0, sd0)
-        rhs = formulation.make_rhs(system, mode, s0)
         unpack = formulation.unpacker(system)
-        unpack.seed(s0[system.z_index])
+        unpack.seed(s0)
+        rhs = formulation.make_rhs(system, mode, unpack)
         events = []
         for i in range(len(self.names)):
             events.append(self._event(unpack, i, mode[i]))
@@ -364,8 +364,10 @@ class _Run:
         else:
             t_end, y_end = sol.t[-1], sol.y[:, -1]
         t_out = np.asarray(sol.t, dtype=float)          # solve_ivp gives lists when t_eval is empty
-        self._store(t_out, np.asarray(sol.y, dtype=float).reshape(y0.size, t_out.size), unpack, mode, t0)
         s_end, sd_end = unpack(y_end, t_end)
+        outputs = formulation.unpacker(system)          # marches from the start, Newton's guess close by
+        outputs.seed(s0)
+        self._store(t_out, np.asarray(sol.y, dtype=float).reshape(y0.size, t_out.size), outputs, mode, t0)
         return t_end, s_end, sd_end, event
 
     def _event(self, unpack, i, on):
