@@ -28,10 +28,8 @@ err@10s
     ``max |[s, s'] - [s, s']_ref|`` at t = 10 s.  The reference is the Minimal
     formulation with DOP853 at rtol = atol = 1e-12.  The state at 10 s comes
     from a second, untimed run that ends at t = 10 s (its last output point),
-    for the library and the baseline alike.  (``simulate(..., t_eval=[10, 20])``
-    is not used: at the time of writing it raises AttributeError in
-    ``_Run._store`` whenever a segment between two switches contains no output
-    time, which is the case here.)
+    for the library and the baseline alike, so that the timed run is exactly
+    the 20 s run with the solver's own output steps.
 max|f|
     The largest constraint error ``|f(s)|`` over the output points of the 20 s
     run: for the library its ``max_constraint_error``, for the baseline the

@@ -37,3 +37,17 @@ def test_energy_balance_with_torque_and_gas_force(slider_crank):
     # trapezoidal quadrature of a power with kinks at the switches: 1e-3 J out of ~1000 J of work
     assert np.max(np.abs(energy - energy[0] - work)) < 2e-3
     assert np.max(np.abs(work)) > 100.0
+
+
+@pytest.mark.parametrize("formulation", FORMULATIONS, ids=lambda f: f.name)
+def test_a_new_mechanism_four_bar_linkage_conserves_energy_and_stays_closed(four_bar, formulation):
+    """Grashof crank-rocker (l1 + l0 < l2 + l3): the crank turns fully; T + Pi constant, loop closed."""
+    from closedloop import consistent_initial_state
+
+    state = consistent_initial_state(four_bar, [0.5], [6.0], [1.0, 1.8])
+    result = simulate(four_bar, state, 10.0, formulation=formulation, method="DOP853", rtol=1e-11, atol=1e-11)
+    energy = four_bar.energy(result.s, result.sd)
+    initial = four_bar.energy(state.s, state.sd)
+    assert np.max(np.abs(energy - initial)) / abs(initial) < 1e-8
+    assert result.max_constraint_error < 1e-7
+    assert np.ptp(result.coordinate("theta1")) > 2 * np.pi      # the crank turned a full revolution
