@@ -187,7 +187,8 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     stop_when : callable, optional
         ``stop_when(t, s, sd) -> float``: the run ends early, at the time this
         crosses zero upward (e.g. a speed limit for a run-away motion).  The
-        result's ``stopped_at`` is then that time.
+        result's ``stopped_at`` is then that time.  It is not evaluated
+        while the mechanism is stuck (its state is then constant).
     sticking_resolution : float, optional
         Sampling interval (s) for the release of a stuck state.
     max_segments : int, optional
@@ -345,29 +346,37 @@ class _Run:
         if self.t_eval is not None:
             t_eval = self.t_eval[self._next_output:]
             t_eval = t_eval[t_eval >= t0]
-        sol = solve_ivp(rhs, (t0, self.t_end), y0, method=self.method, rtol=self.rtol, atol=self.atol,
-                        t_eval=t_eval, events=events or None, **self.options)
+        reached = [t0]                              # the last time the right-hand side was evaluated
+
+        def timed_rhs(t, y):
+            reached[0] = t
+            return rhs(t, y)
+
+        sol = solve_ivp(timed_rhs, (t0, self.t_end), y0, method=self.method, rtol=self.rtol,
+                        atol=self.atol, t_eval=t_eval, events=events or None, **self.options)
         self.nfev += sol.nfev
         if sol.status == -1:
-            raise IntegrationError(f"{self.method} failed at t = {sol.t[-1]:.6g} s: {sol.message}")
-        bad = ~np.all(np.isfinite(sol.y), axis=0)
+            raise IntegrationError(
+                f"{self.method} failed near t = {reached[0]:.6g} s: {sol.message} Try an implicit "
+                "method (Radau, BDF), looser tolerances, or smaller Baumgarte gains"
+            )
+        t_out = np.asarray(sol.t, dtype=float)          # solve_ivp gives lists when t_eval is empty
+        y_out = np.asarray(sol.y, dtype=float).reshape(y0.size, t_out.size)
+        bad = ~np.all(np.isfinite(y_out), axis=0)
         if np.any(bad):
             raise IntegrationError(
-                f"the state became non-finite at t = {sol.t[np.argmax(bad)]:.6g} s with {self.method}; "
+                f"the state became non-finite at t = {t_out[np.argmax(bad)]:.6g} s with {self.method}; "
                 "try an implicit method (Radau, BDF) or smaller Baumgarte gains"
             )
-        event = None
-        if sol.status == 1:
-            times = [te[0] if te.size else np.inf for te in sol.t_events]
-            event = int(np.argmin(times))
-            t_end, y_end = sol.t_events[event][0], sol.y_events[event][0]
-        else:
-            t_end, y_end = sol.t[-1], sol.y[:, -1]
-        t_out = np.asarray(sol.t, dtype=float)          # solve_ivp gives lists when t_eval is empty
-        s_end, sd_end = unpack(y_end, t_end)
         outputs = formulation.unpacker(system)          # marches from the start, Newton's guess close by
         outputs.seed(s0)
-        self._store(t_out, np.asarray(sol.y, dtype=float).reshape(y0.size, t_out.size), outputs, mode, t0)
+        self._store(t_out, y_out, outputs, mode, t0)
+        if sol.status == 0:                             # reached t_end: no end state is needed
+            return self.t_end, None, None, None
+        times = [te[0] if te.size else np.inf for te in sol.t_events]
+        event = int(np.argmin(times))
+        t_end, y_end = sol.t_events[event][0], sol.y_events[event][0]
+        s_end, sd_end = unpack(y_end, t_end)
         return t_end, s_end, sd_end, event
 
     def _event(self, unpack, i, on):
@@ -415,11 +424,11 @@ class _Run:
             off, on = self._side_rates(t, s, sd, mode, i)
             return min(off, -on)
 
-        t_release, previous = None, t0
+        t_release, previous = None, t0             # margin(t0) > 0: _decide found off > 0 > on
         grid = np.arange(t0 + self.resolution, self.t_end + self.resolution, self.resolution)
         for t in np.minimum(grid, self.t_end):
             if margin(t) <= 0:
-                t_release = brentq(margin, previous, t, xtol=1e-12)
+                t_release, past = brentq(margin, previous, t, xtol=1e-12), t
                 break
             previous = t
         t_stop = self.t_end if t_release is None else t_release
@@ -436,8 +445,10 @@ class _Run:
                                  np.zeros((system.n, times.size)), held, i))
         if t_release is None:
             return self.t_end, s, sd, mode, None
-        off, on = self._side_rates(t_release, s, sd, mode, i)
-        side = on >= 0 and not off <= 0
+        # The side is read just past the root (at the grid point where the margin is <= 0):
+        # at the root itself the rate that ends the sticking is zero to round-off.
+        off, on = self._side_rates(past, s, sd, mode, i)
+        side = bool(off > 0)                       # off <= 0: the free motion turns back (h < 0)
         self.switch_events.append(SwitchEvent(t_release, self.names[i], "released"))
         return t_release, s, sd, mode[:i] + (side,) + mode[i + 1:], None
 
