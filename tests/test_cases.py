@@ -7,7 +7,7 @@ import pytest
 from scipy.integrate import quad
 
 from closedloop import Minimal, simulate
-from closedloop.slider_crank import (CASES, READINGS, classify_motion, drive_torque, gas_force, initial_state,
+from closedloop.slider_crank import (CASES, classify_motion, drive_torque, gas_force, initial_state,
                                      reading_outcomes)
 
 

@@ -32,3 +32,8 @@ class SingularConfigurationError(ClosedLoopError, ArithmeticError):
 
 class IntegrationError(ClosedLoopError, RuntimeError):
     """The numerical integration failed; the message names the time and the reason."""
+
+
+def at_time(t):
+    """``" at t = ... s"`` for an error message, or nothing when the time is unknown."""
+    return "" if t is None else f" at t = {t:.6g} s"

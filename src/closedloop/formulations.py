@@ -100,7 +100,18 @@ class Augmented(_RedundantFormulation):
 
 
 @dataclass(frozen=True)
-class Baumgarte(_RedundantFormulation):
+class _Stabilised(_RedundantFormulation):
+    """The Baumgarte gains alpha, beta >= 0 of (15), shared by (17) and (25)."""
+
+    alpha: float = 5.0
+    beta: float = 5.0
+
+    def __post_init__(self):
+        _check_gains(self.alpha, self.beta)
+
+
+@dataclass(frozen=True)
+class Baumgarte(_Stabilised):
     """Baumgarte's stabilisation (16)-(17).
 
     The constraint rows of (12) solve f'' + 2 alpha f' + beta^2 f = 0 (15)
@@ -111,12 +122,7 @@ class Baumgarte(_RedundantFormulation):
     alpha, beta : float, >= 0
     """
 
-    alpha: float = 5.0
-    beta: float = 5.0
     name = "baumgarte"
-
-    def __post_init__(self):
-        _check_gains(self.alpha, self.beta)
 
     def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (16) with Baumgarte's p2~ of (17)."""
@@ -130,7 +136,7 @@ def baumgarte_p2(Phi, gamma, f, sd, alpha, beta):
 
 
 @dataclass(frozen=True)
-class Orthogonal(_RedundantFormulation):
+class Orthogonal(_Stabilised):
     """The orthogonality-theorem ODE (24)-(26): ``A(s) s'' = p(s, s', t)``.
 
     ``A = [R^T M; Phi_s]`` and ``p = [R^T p1; p2~]`` (25), with R of (20) and
@@ -142,12 +148,7 @@ class Orthogonal(_RedundantFormulation):
         Baumgarte gains in p2~.
     """
 
-    alpha: float = 5.0
-    beta: float = 5.0
     name = "orthogonal"
-
-    def __post_init__(self):
-        _check_gains(self.alpha, self.beta)
 
     def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (26)."""

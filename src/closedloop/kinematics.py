@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import ConvergenceError, InputError, SingularConfigurationError
+from .errors import ConvergenceError, InputError, SingularConfigurationError, at_time
 from .model import solve_small
 
 __all__ = ["solve_dependent", "dependent_velocities", "consistent_initial_state", "InitialState"]
@@ -17,10 +17,6 @@ __all__ = ["solve_dependent", "dependent_velocities", "consistent_initial_state"
 #: Newton stops when |f| (or its step) is below this, relative to 1 + |s| (or 1 + |z|).
 NEWTON_TOLERANCE = 1e-15
 NEWTON_MAX_ITERATIONS = 25
-
-
-def _where(t):
-    return "" if t is None else f" at t = {t:.6g} s"
 
 
 def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
@@ -71,7 +67,7 @@ def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
             step = solve_small(Phi_z, f)
         except np.linalg.LinAlgError:
             raise SingularConfigurationError(
-                f"Phi_z is singular{_where(t)} at s = {np.array2string(s, precision=6)}: "
+                f"Phi_z is singular{at_time(t)} at s = {np.array2string(s, precision=6)}: "
                 "the dependent coordinates are not determined there (a kinematic singularity); "
                 "start from another guess of z or choose other independent coordinates"
             ) from None
@@ -82,7 +78,7 @@ def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
             return (s, system.jacobian(s)) if return_jacobian else s
     residual = np.linalg.norm(system.constraints(s)) if np.all(np.isfinite(s)) else np.inf
     raise ConvergenceError(
-        f"Newton on f(q, z) = 0 did not converge in {max_iterations} iterations{_where(t)} "
+        f"Newton on f(q, z) = 0 did not converge in {max_iterations} iterations{at_time(t)} "
         f"(q = {np.array2string(np.asarray(q), precision=6)}, |f| = {residual:.3g}): the mechanism "
         "may not assemble at this q, or the guess of z is on no branch"
     )

@@ -22,7 +22,7 @@ from typing import Callable
 import numpy as np
 import sympy as sp
 
-from .errors import InputError
+from .errors import InputError, SingularConfigurationError, at_time
 
 __all__ = ["MultibodyModel", "DerivedModel", "derive", "System"]
 
@@ -320,8 +320,6 @@ class System:
 
 def solve_augmented(M, Phi, p1, p2, t=None):
     """Solve ``[[M, Phi^T], [Phi, 0]] [s''; lambda] = [p1; p2]`` (12), (16)."""
-    from .errors import SingularConfigurationError
-
     n, r = M.shape[0], Phi.shape[0]
     K = np.zeros((n + r, n + r))
     K[:n, :n] = M
@@ -330,9 +328,8 @@ def solve_augmented(M, Phi, p1, p2, t=None):
     try:
         x = np.linalg.solve(K, np.concatenate((p1, p2)))
     except np.linalg.LinAlgError:
-        where = "" if t is None else f" at t = {t:.6g} s"
         raise SingularConfigurationError(
-            f"the augmented matrix of (12) is singular{where}: the constraints are dependent "
+            f"the augmented matrix of (12) is singular{at_time(t)}: the constraints are dependent "
             "(a kinematic singularity, cond(Phi_s) = inf); try the minimal formulation or other coordinates"
         ) from None
     return x[:n], x[n:]
@@ -362,15 +359,13 @@ def solve_small(A, b):
 
 
 def _orthogonal_complement(Phi, q_index, z_index, t=None):
-    from .errors import SingularConfigurationError
-
+    """R of (20) from Phi_s, in the order of s; see :meth:`System.orthogonal_complement`."""
     Phi_q, Phi_z = Phi[:, q_index], Phi[:, z_index]
     try:
         X = solve_small(Phi_z, Phi_q)
     except np.linalg.LinAlgError:
-        where = "" if t is None else f" at t = {t:.6g} s"
         raise SingularConfigurationError(
-            f"Phi_z is singular{where} (cond = inf): R of (20) does not exist at this "
+            f"Phi_z is singular{at_time(t)} (cond = inf): R of (20) does not exist at this "
             "configuration; choose other independent coordinates"
         ) from None
     R = np.empty((Phi.shape[1], len(q_index)))

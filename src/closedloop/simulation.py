@@ -30,8 +30,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.integrate._ivp.ivp import METHODS
+from scipy.integrate import OdeSolver, solve_ivp
 from scipy.optimize import brentq
 
 from .errors import InputError, IntegrationError
@@ -40,8 +39,8 @@ from .kinematics import InitialState
 
 __all__ = ["simulate", "SimulationResult", "SwitchEvent", "SOLVER_METHODS"]
 
-#: The solve_ivp methods simulate() accepts by name.
-SOLVER_METHODS = tuple(METHODS)
+#: The solve_ivp methods simulate() accepts by name (an OdeSolver subclass is accepted too).
+SOLVER_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 _FORMULATIONS = (Augmented, Baumgarte, Orthogonal, Minimal)
 #: Constraint error above which an initial state is refused as inconsistent.
 INITIAL_TOLERANCE = 1e-8
@@ -133,7 +132,7 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
             raise InputError(f"{name}: must be finite and > 0, got {value!r}")
     if not isinstance(formulation, _FORMULATIONS):
         raise InputError(f"formulation: expected Augmented, Baumgarte, Orthogonal or Minimal, got {formulation!r}")
-    if isinstance(method, str) and method not in METHODS:
+    if not (method in SOLVER_METHODS or (isinstance(method, type) and issubclass(method, OdeSolver))):
         raise InputError(f"method: unknown {method!r}; choose one of {', '.join(SOLVER_METHODS)}")
     reserved = {"events", "dense_output", "args", "vectorized"} & set(options)
     if reserved:
@@ -296,7 +295,6 @@ class _Run:
 
     # -- the loop ---------------------------------------------------------------
     def integrate(self, t, s, sd, max_segments):
-        system, formulation = self.system, self.formulation
         if self.force is None or not self.names:
             mode, stuck = (), None
         else:
