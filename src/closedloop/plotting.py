@@ -5,7 +5,7 @@ matplotlib is imported here only, so simulating never pulls it in.
 
 from __future__ import annotations
 
-__all__ = ["plot_slider_crank"]
+__all__ = ["plot_slider_crank", "slider_crank_points", "draw_slider_crank", "animate_slider_crank"]
 
 
 def plot_slider_crank(result, title=None):
@@ -52,3 +52,83 @@ def plot_slider_crank(result, title=None):
     if title:
         fig.suptitle(title)
     return fig
+
+
+def slider_crank_points(s, parameters):
+    """Joint positions O, A (crank pin) and C (slider) for a state s = [phi, psi, x_C].
+
+    A = l1 (cos phi, sin phi) and C = (x_C, 0); by (27)-(28), C = A - l2 (cos psi, sin psi).
+
+    Returns
+    -------
+    ndarray, shape (3, 2)
+    """
+    import numpy as np
+
+    phi, _, x = s[0], s[1], s[2]
+    return np.array([[0.0, 0.0], [parameters.l1 * np.cos(phi), parameters.l1 * np.sin(phi)], [x, 0.0]])
+
+
+def draw_slider_crank(ax, s, parameters, color="C0", label=None):
+    """Draw the mechanism at state s on the axes ``ax``: crank OA, rod AC, slider C.
+
+    Returns the list of artists, so that an animation can update them.
+    """
+    points = slider_crank_points(s, parameters)
+    (links,) = ax.plot(points[:, 0], points[:, 1], "-o", color=color, lw=3, ms=6, label=label)
+    (slider,) = ax.plot([points[2, 0]], [0.0], "s", color=color, ms=14, alpha=0.6)
+    return [links, slider]
+
+
+def animate_slider_crank(result, parameters, frames=30, duration=None, title=None):
+    """A light HTML/JavaScript animation of a slider-crank run.
+
+    The run is downsampled to ``frames`` evenly spaced instants, drawn small at
+    a low resolution, so that a page with four of them stays well under a few
+    hundred kilobytes.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    parameters : SliderCrankParameters
+    frames : int
+        Number of frames (downsampled from the run).
+    duration : float, optional
+        Seconds of animation; default real time.
+    title : str, optional
+
+    Returns
+    -------
+    str
+        HTML to show with ``IPython.display.HTML``.
+    """
+    import numpy as np
+    from matplotlib.animation import FuncAnimation
+    from matplotlib.figure import Figure
+
+    times = np.linspace(result.t[0], result.t[-1], frames)
+    index = np.minimum(np.searchsorted(result.t, times), result.t.size - 1)
+    reach = parameters.l1 + parameters.l2
+    fig = Figure(figsize=(4.0, 2.2), dpi=50, layout="constrained")
+    ax = fig.add_subplot()
+    ax.set_xlim(-1.1 * parameters.l1, 1.05 * reach)
+    ax.set_ylim(-1.2 * parameters.l1, 1.2 * parameters.l1)
+    ax.set_aspect("equal")
+    ax.axhline(0.0, color="0.7", lw=1, zorder=0)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    artists = draw_slider_crank(ax, result.s[:, index[0]], parameters)
+    stamp = ax.text(0.02, 0.92, "", transform=ax.transAxes, fontsize=9)
+    if title:
+        ax.set_title(title, fontsize=9)
+
+    def update(k):
+        points = slider_crank_points(result.s[:, index[k]], parameters)
+        artists[0].set_data(points[:, 0], points[:, 1])
+        artists[1].set_data([points[2, 0]], [0.0])
+        stamp.set_text(f"t = {times[k]:4.1f} s")
+        return [*artists, stamp]
+
+    seconds = (result.t[-1] - result.t[0]) if duration is None else duration
+    animation = FuncAnimation(fig, update, frames=frames, interval=1000.0 * seconds / frames, blit=False)
+    return animation.to_jshtml(default_mode="loop")
