@@ -131,4 +131,28 @@ def animate_slider_crank(result, parameters, frames=30, duration=None, title=Non
 
     seconds = (result.t[-1] - result.t[0]) if duration is None else duration
     animation = FuncAnimation(fig, update, frames=frames, interval=1000.0 * seconds / frames, blit=False)
-    return animation.to_jshtml(default_mode="loop")
+    return _offline_player(animation.to_jshtml(default_mode="loop"))
+
+
+#: matplotlib's player asks for Font Awesome 4 from a CDN; the book's theme ships Font Awesome 6.
+_PLAYER_ICONS = {
+    "fa fa-fast-backward": "fa-solid fa-backward-fast",
+    "fa fa-step-backward": "fa-solid fa-backward-step",
+    "fa fa-play fa-flip-horizontal": "fa-solid fa-play fa-flip-horizontal",
+    "fa fa-pause": "fa-solid fa-pause",
+    "fa fa-play": "fa-solid fa-play",
+    "fa fa-step-forward": "fa-solid fa-forward-step",
+    "fa fa-fast-forward": "fa-solid fa-forward-fast",
+    "fa fa-minus": "fa-solid fa-minus",
+    "fa fa-plus": "fa-solid fa-plus",
+}
+
+
+def _offline_player(html):
+    """The animation's HTML with no request to the network: no CDN stylesheet, local icon names."""
+    import re
+
+    html = re.sub(r'<link rel="stylesheet"\s*href="https://maxcdn[^"]*font-awesome[^"]*">', "", html)
+    for old, new in _PLAYER_ICONS.items():
+        html = html.replace(f'class="{old}"', f'class="{new}"')
+    return html
