@@ -4,7 +4,8 @@ Builds the book with the README's command (`make book`, incremental), serves
 ``_build/html`` on 127.0.0.1 and opens every page listed in ``_toc.yml``:
 
 - no console error, apart from the known harmless ones named in ``HARMLESS``;
-- every math block is typeset by the locally shipped MathJax, with no math error;
+- every math block is typeset by the locally shipped MathJax, with no math error, and every
+  display equation fits the text column;
 - every image loads;
 - a solution dropdown opens on click.
 
@@ -98,6 +99,12 @@ def test_page_loads_cleanly_with_math_and_figures(browser, site, page_name):
                 typeset: blocks.filter(b => b.querySelector('mjx-container')).length,
                 errors: document.querySelectorAll('mjx-merror').length};
     }""")
+    too_wide = page.evaluate("""() => {
+        const column = document.querySelector('article').getBoundingClientRect();
+        return [...document.querySelectorAll('mjx-container[display="true"]')]
+            .map(m => m.getBoundingClientRect())
+            .filter(r => r.left < column.left - 1 || r.right > column.right + 1).length;
+    }""")
     images = page.evaluate("""() => [...document.querySelectorAll('article img')]
         .map(i => ({src: i.getAttribute('src'), ok: i.complete && i.naturalWidth > 0}))""")
     shots = ROOT / "_build" / "screenshots"
@@ -106,6 +113,7 @@ def test_page_loads_cleanly_with_math_and_figures(browser, site, page_name):
     page.close()
     assert problems == []
     assert math["typeset"] == math["blocks"] and math["errors"] == 0, math
+    assert too_wide == 0, f"{too_wide} display equations stick out of the text column (1200 px window)"
     assert [i["src"] for i in images if not i["ok"]] == []
     if page_name.startswith("chapters/"):
         assert math["blocks"] > 0 and images, "a chapter without math or figures"
@@ -141,4 +149,6 @@ def test_each_chapter_downloads_as_an_executed_notebook(site):
         assert f"_sources/{page_name}.ipynb" in html, f"{page_name}: no .ipynb in the download menu"
         notebook = json.loads((HTML / "_sources" / f"{page_name}.ipynb").read_text())
         code = [c for c in notebook["cells"] if c["cell_type"] == "code"]
-        assert code and all(c["execution_count"] for c in code)
+        outputs = [o for c in code for o in c["outputs"]]
+        assert outputs, f"{page_name}: the downloadable notebook has no outputs"
+        assert not [o for o in outputs if o["output_type"] == "error"]

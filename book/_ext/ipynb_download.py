@@ -2,21 +2,33 @@
 
 sphinx-book-theme adds that entry only when a launch service (Binder, Colab,
 Thebe, ...) is configured, and all of them need the network. This does the part
-that needs none: copy the notebook that MyST-NB executed into ``_sources`` and
-tell the theme where it is, exactly as the theme's own launch code does.
+that needs none: put the executed notebook into ``_sources`` and tell the theme
+where it is, as the theme's own launch code does.
+
+MyST-NB writes the executed notebook to ``jupyter_execute``, but when the outputs
+come from the execution cache (myst-nb 1.4) it writes the notebook *without* them.
+So the outputs are merged back from the cache here.
 """
 
+from contextlib import suppress
 from pathlib import Path
-from shutil import copy2
 
 
 def add_ipynb_source(app, pagename, templatename, context, doctree):
+    import nbformat
+
     executed = Path(app.outdir).parent / "jupyter_execute" / f"{pagename}.ipynb"
     if doctree is None or not executed.exists():
         return
+    notebook = nbformat.read(executed, as_version=4)
+    if app.env.mystnb_config.execution_mode == "cache":
+        from jupyter_cache import get_cache
+
+        with suppress(KeyError):
+            _, notebook = get_cache(app.env.mystnb_config.execution_cache_path).merge_match_into_notebook(notebook)
     target = Path(app.outdir) / "_sources" / f"{pagename}.ipynb"
     target.parent.mkdir(parents=True, exist_ok=True)
-    copy2(executed, target)
+    nbformat.write(notebook, target)
     context["ipynb_source"] = f"{pagename}.ipynb"
 
 
