@@ -7,7 +7,8 @@ docstrings are the paper's.
 
 from .errors import (ClosedLoopError, ConvergenceError, InputError, IntegrationError,
                      SingularConfigurationError)
-from .formulations import Augmented, Baumgarte, Minimal, Orthogonal, baumgarte_from_step, formulation_from_name
+from .formulations import (Augmented, Baumgarte, Minimal, Orthogonal, baumgarte_from_step, baumgarte_p2,
+                           formulation_from_name)
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
 from .model import DerivedModel, MultibodyModel, System, derive
@@ -16,7 +17,7 @@ from .simulation import SimulationResult, simulate
 __version__ = "0.1.0"
 
 __all__ = [
-    "Augmented", "Baumgarte", "Orthogonal", "Minimal", "baumgarte_from_step", "formulation_from_name",
+    "Augmented", "Baumgarte", "Orthogonal", "Minimal", "baumgarte_from_step", "baumgarte_p2", "formulation_from_name",
     "MultibodyModel", "DerivedModel", "derive", "System", "SwitchedForce",
     "InitialState", "consistent_initial_state", "simulate", "SimulationResult",
     "ClosedLoopError", "InputError", "ConvergenceError", "SingularConfigurationError", "IntegrationError",

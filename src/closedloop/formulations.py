@@ -30,6 +30,7 @@ __all__ = [
     "Orthogonal",
     "Minimal",
     "baumgarte_from_step",
+    "baumgarte_p2",
     "formulation_from_name",
     "FORMULATION_NAMES",
 ]
