@@ -7,7 +7,8 @@ Builds the book with the README's command (`make book`, incremental), serves
 - every math block is typeset by the locally shipped MathJax, with no math error, and every
   display equation fits the text column;
 - every image loads;
-- a solution dropdown opens on click.
+- a solution dropdown opens on click;
+- every chapter downloads as an executed notebook.
 
 Screenshots of every page land in ``_build/screenshots`` to be looked at.
 If Chromium is not installed, the test is skipped and says so.
@@ -52,6 +53,7 @@ def site():
                     "checked in a browser: install Debian's chromium package (make test tries to)")
     done = subprocess.run(["make", "-s", "book"], cwd=ROOT, capture_output=True, text=True, timeout=1500)
     assert done.returncode == 0, f"make book failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+
     class Quiet(http.server.SimpleHTTPRequestHandler):
         def log_message(self, *args):
             pass
