@@ -9,9 +9,9 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 # The execution cache notices edits to a notebook's own cells only: a change to the library,
 # the lock or the config must re-execute every chapter, so the cache is keyed on this hash too.
-SOURCE_HASH = $(shell cat $(sort $(wildcard src/closedloop/*.py)) pyproject.toml requirements/lock.txt _config.yml | sha256sum | cut -c1-16)
+SOURCE_HASH = $(shell cat $(sort $(wildcard src/closedloop/*.py exercises/checking/*.py)) pyproject.toml requirements/lock.txt _config.yml | sha256sum | cut -c1-16)
 
-.PHONY: book test browser benchmark clean
+.PHONY: book test browser student benchmark clean
 
 $(STAMP): requirements/lock.txt pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -36,6 +36,10 @@ browser:
 
 test: $(STAMP) browser
 	$(BIN)/python -m pytest
+
+# The student version of every exercise notebook (solutions removed), for handing out.
+student: $(STAMP)
+	$(BIN)/python exercises/make_student.py _build/student
 
 benchmark: $(STAMP)
 	$(BIN)/python benchmarks/performance.py

@@ -1,0 +1,97 @@
+"""Answer checks for the exercise notebooks: right or wrong, with a hint, never the answer.
+
+Each chapter's module (``ch01`` ... ``ch07``) defines ``CHECKS``, a mapping from an
+exercise label to a :class:`Check`. A notebook calls::
+
+    from checking.ch03 import check
+    check("3.2", my_answer)
+
+The expected value is computed by the ``closedloop`` library when the check runs
+(never typed in), and compared with a tolerance. An answer still left as ``...``
+raises :class:`NotAnswered`: the student notebooks stop there, with one clear message.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+__all__ = ["Check", "NotAnswered", "numeric", "choice", "scaled", "make_check"]
+
+
+class NotAnswered(Exception):
+    """The exercise still holds its placeholder ``...``."""
+
+
+@dataclass(frozen=True)
+class Check:
+    """One exercise's answer check.
+
+    Attributes
+    ----------
+    label : str
+        The exercise, e.g. "3.2".
+    expected : callable
+        Computes the right answer (with the library), once; it is cached.
+    compare : callable
+        ``compare(answer, expected) -> bool``.
+    hint : str
+        Shown when the answer is wrong; it must not give the answer away.
+    wrong_example : callable
+        ``wrong_example(expected) -> a wrong answer``, used by the tests to show
+        that this check can fail.
+    """
+
+    label: str
+    expected: Callable[[], Any]
+    compare: Callable[[Any, Any], bool]
+    hint: str
+    wrong_example: Callable[[Any], Any]
+    _cache: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def expected_value(self):
+        if "value" not in self._cache:
+            self._cache["value"] = self.expected()
+        return self._cache["value"]
+
+    def __call__(self, answer) -> bool:
+        if answer is Ellipsis:
+            raise NotAnswered(f"Exercise {self.label} is not yet answered: replace the ... with your answer.")
+        try:
+            right = bool(self.compare(answer, self.expected_value()))
+        except (TypeError, ValueError):
+            right = False
+        print(f"Exercise {self.label}: " + ("right." if right else f"not right yet. Hint: {self.hint}"))
+        return right
+
+
+def numeric(rtol=1e-6, atol=0.0):
+    """Compare numbers (or arrays, element by element) with a tolerance."""
+    import numpy as np
+
+    def compare(answer, expected):
+        answer, expected = np.asarray(answer, dtype=float), np.asarray(expected, dtype=float)
+        return answer.shape == expected.shape and bool(np.all(np.isfinite(answer))) and \
+            bool(np.allclose(answer, expected, rtol=rtol, atol=atol))
+    return compare
+
+
+def choice(answer, expected):
+    """Compare a short text answer (a letter, a word), ignoring case and spaces."""
+    return str(answer).strip().lower() == str(expected).strip().lower()
+
+
+def scaled(factor=1.5, shift=1.0):
+    """A wrong numeric answer near the right one."""
+    import numpy as np
+
+    return lambda expected: np.asarray(expected, dtype=float) * factor + shift
+
+
+def make_check(checks: dict):
+    """The ``check(label, answer)`` function of one chapter's module."""
+    def check(label, answer):
+        if label not in checks:
+            raise KeyError(f"no exercise {label!r} here; the exercises are {', '.join(checks)}")
+        return checks[label](answer)
+    return check

@@ -1,0 +1,124 @@
+"""Generate the student version of every exercise notebook.
+
+    python exercises/make_student.py [OUTPUT_DIR]        (default: _build/student)
+
+Each exercise notebook is written once, with its solutions (MyST Markdown). The
+student version is the same notebook with:
+
+- every ``{solution}`` block removed, and each ``{exercise}`` shown as a plain heading;
+- every gated solution (``{solution-start}`` ... ``{solution-end}``) removed, except
+  its code cells that hold a ``# BEGIN SOLUTION`` / ``# END SOLUTION`` block: that
+  block is replaced by the lines written after ``# STUDENT:`` inside it, typically
+  ``answer = ...``, so that the cell's ``check(...)`` call says "not yet answered";
+- the same replacement in code cells outside solutions.
+
+The result is saved as .ipynb for handing out, with the ``checking`` package
+beside it. Student notebooks are build outputs and are never committed.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+FENCE = re.compile(r"^(?P<fence>`{3,}|:{3,})\s*\{(?P<name>[\w-]+)\}")
+NOTICE = ("> **Student version.** Replace each `...` with your answer and run the cell: its check says "
+          "whether the answer is right, with a hint if it is not.\n")
+
+
+def student_code(lines):
+    """A code cell's lines with each solution block replaced by its ``# STUDENT:`` lines."""
+    out, inside, placeholder = [], False, []
+    for line in lines:
+        stripped = line.strip()
+        if stripped.startswith("# BEGIN SOLUTION"):
+            inside, placeholder = True, []
+            indent = line[: len(line) - len(line.lstrip())]
+        elif stripped.startswith("# END SOLUTION"):
+            if not placeholder:
+                raise ValueError("a solution block has no '# STUDENT:' line to leave in its place")
+            out += placeholder
+            inside = False
+        elif inside:
+            if stripped.startswith("# STUDENT:"):
+                placeholder.append(indent + stripped[len("# STUDENT:"):].strip() + "\n")
+        else:
+            out.append(line)
+    if inside:
+        raise ValueError("a '# BEGIN SOLUTION' has no '# END SOLUTION'")
+    return out
+
+
+def student_markdown(text: str) -> str:
+    """The MyST source of the student version (see the module docstring)."""
+    lines = text.splitlines(keepends=True)
+    out, i, gated = [], 0, False
+    while i < len(lines):
+        match = FENCE.match(lines[i])
+        name = match.group("name") if match else None
+        if name in ("solution", "solution-start", "solution-end"):
+            j = i + 1                                   # skip the directive to its closing fence
+            while j < len(lines) and lines[j].strip() != match.group("fence"):
+                j += 1
+            i, gated = j + 1, {"solution": gated, "solution-start": True, "solution-end": False}[name]
+            continue
+        if name == "exercise" and not gated:         # a plain heading: Jupyter cannot render directives
+            title = lines[i][match.end():].strip()
+            j, body = i + 1, []
+            while j < len(lines) and lines[j].strip() != match.group("fence"):
+                if lines[j].startswith(":label:"):
+                    number = lines[j].split(":label:")[1].strip().split("-", 1)[-1].replace("-", ".")
+                else:
+                    body.append(lines[j])
+                j += 1
+            heading = title if title.startswith(f"{number}:") else f"{number}: {title}"
+            out += [f"### Exercise {heading}\n"] + (body[1:] if body and body[0].strip() == ":nonumber:" else body)
+            i = j + 1
+            continue
+        if name == "code-cell":
+            j = i + 1
+            while j < len(lines) and lines[j].strip() != match.group("fence"):
+                j += 1
+            body = lines[i + 1: j]
+            has_solution = any(line.strip().startswith("# BEGIN SOLUTION") for line in body)
+            if not gated or has_solution:
+                out += [lines[i], *student_code(body), lines[j]]
+            i = j + 1
+            continue
+        if not gated:
+            out.append(lines[i])
+        i += 1
+    text = "".join(out)
+    # the notice goes right after the first heading
+    return re.sub(r"^(# .+\n)", lambda m: m.group(1) + "\n" + NOTICE, text, count=1, flags=re.M)
+
+
+def exercise_notebooks():
+    return sorted(HERE.glob("[0-9][0-9]-*.md"))
+
+
+def write_student_versions(output: Path) -> list[Path]:
+    """Write one student .ipynb per exercise notebook into ``output``; return their paths."""
+    import shutil
+
+    import jupytext
+
+    output.mkdir(parents=True, exist_ok=True)
+    # the notebooks' checks travel with them (they compute the answers with closedloop)
+    shutil.copytree(HERE / "checking", output / "checking", dirs_exist_ok=True,
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    written = []
+    for source in exercise_notebooks():
+        notebook = jupytext.reads(student_markdown(source.read_text()), fmt="md:myst")
+        target = output / f"{source.stem}.ipynb"
+        jupytext.write(notebook, target, fmt="ipynb")
+        written.append(target)
+    return written
+
+
+if __name__ == "__main__":
+    destination = Path(sys.argv[1]) if len(sys.argv) > 1 else HERE.parent / "_build" / "student"
+    for path in write_student_versions(destination):
+        print(path)
