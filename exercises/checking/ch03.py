@@ -1,0 +1,80 @@
+"""Checks for exercises/03-baumgarte.md."""
+
+import numpy as np
+
+from closedloop import Baumgarte, baumgarte_from_step, baumgarte_p2, simulate
+from closedloop.slider_crank import CASES, initial_state, slider_crank_system
+
+from . import Check, choice, make_check, numeric, scaled
+
+#: alpha, beta of exercise 3.1 (overdamped).
+ROOT_GAINS = (5.0, 4.0)
+#: alpha, beta of exercise 3.2.
+P2_GAINS = (2.0, 8.0)
+#: The step of exercises 3.3 and 3.4 [s].
+STEP = 0.01
+
+
+def same_roots(rtol=1e-6, atol=1e-9):
+    """Compare two sets of (possibly complex) roots, in any order."""
+    def compare(answer, expected):
+        answer, expected = np.asarray(answer, dtype=complex), np.asarray(expected, dtype=complex)
+        return answer.shape == expected.shape and bool(np.all(np.isfinite(answer))) and \
+            bool(np.allclose(np.sort_complex(answer), np.sort_complex(expected), rtol=rtol, atol=atol))
+    return compare
+
+
+def _roots():
+    alpha, beta = ROOT_GAINS
+    return np.roots([1.0, 2.0 * alpha, beta**2])
+
+
+def _spoiled_p2():
+    system = slider_crank_system()
+    state = initial_state(system, 2.0, 1.5)
+    s = state.s + np.array([0.0, 0.0, 2e-3])
+    sd = state.sd + np.array([0.0, 0.0, 1e-2])
+    _, _, f, Phi, Phi_rate_sd = system.dynamics(0.0, s, sd)
+    return baumgarte_p2(Phi, Phi_rate_sd, f, sd, *P2_GAINS)
+
+
+def _step_rule_gains():
+    rule = baumgarte_from_step(STEP)
+    return [rule.alpha, rule.beta]
+
+
+def _rule_against_baumgarte():
+    system = slider_crank_system()
+    case = CASES[4]
+    start = initial_state(system, case.phi0, case.dphi0)
+    times = np.linspace(0.0, 20.0, 2001)
+    baumgarte, rule = (simulate(system, start, 20.0, formulation=formulation, method="RK45",
+                                rtol=1e-6, atol=1e-6, t_eval=times)
+                       for formulation in (Baumgarte(5.0, 5.0), baumgarte_from_step(STEP)))
+    return [baumgarte.max_constraint_error / rule.max_constraint_error, rule.nfev / baumgarte.nfev]
+
+
+CHECKS = {
+    "3.1": Check("3.1", _roots, same_roots(),
+                 "put f_i = exp(mu t) into one component of (15) and solve the quadratic for mu; "
+                 "with alpha > beta both roots are real.",
+                 lambda expected: np.asarray(expected) * 2.0),
+    "3.2": Check("3.2", _spoiled_p2, numeric(1e-6, 1e-9),
+                 "(17) has three terms. Phi_s s' is f', and system.dynamics returns the product "
+                 "Phi_s' s' (not Phi_s'); mind the signs and the square on beta.",
+                 scaled()),
+    "3.3": Check("3.3", _step_rule_gains, numeric(1e-9, 0.0),
+                 "the rule ties both gains to the step; give [alpha, beta] in 1/s, alpha first.",
+                 scaled()),
+    "3.4": Check("3.4", _rule_against_baumgarte, numeric(5e-2, 0.0),
+                 "run both formulations with the same method, tolerances and t_eval; the first number is "
+                 "max |f| of Baumgarte(5, 5) over that of the rule, the second nfev of the rule over "
+                 "that of Baumgarte(5, 5).",
+                 scaled()),
+    "3.5": Check("3.5", lambda: "b", choice,
+                 "with alpha = beta and e0 = 0, what does (3.c) reduce to? Can it change sign for t > 0, "
+                 "and where is its derivative zero?",
+                 lambda expected: "a"),
+}
+
+check = make_check(CHECKS)

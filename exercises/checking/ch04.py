@@ -1,0 +1,87 @@
+"""Checks for exercises/04-orthogonality.md."""
+
+import dataclasses
+
+import numpy as np
+import sympy as sp
+
+from closedloop import Baumgarte, Orthogonal, derive, simulate
+from closedloop.slider_crank import CASES, initial_state, slider_crank_model, slider_crank_system
+
+from . import Check, choice, make_check, numeric, scaled
+
+#: The configuration of exercise 4.1: not on the constraint manifold (27)-(28).
+OFF_MANIFOLD = (2.0, 2.9, 4.0)
+#: The slider offset [m] of exercise 4.2, away from case 2's consistent start.
+SLIDER_OFFSET = 1e-3
+
+
+def entries(rtol, atol):
+    """Compare arrays entry by entry, whatever their shape ((3,) or (3, 1))."""
+    compare = numeric(rtol, atol)
+    return lambda answer, expected: compare(np.ravel(answer), np.ravel(expected))
+
+
+def symbolic(rtol=1e-9, points=5, seed=4):
+    """Compare sympy expressions at random values of their symbols, matched by name."""
+    def compare(answer, expected):
+        answer, expected = sp.sympify(answer), sp.sympify(expected)
+        names = sorted({str(symbol) for symbol in answer.free_symbols | expected.free_symbols})
+        rng = np.random.default_rng(seed)
+        for _ in range(points):
+            values = dict(zip(names, rng.uniform(0.3, 2.5, len(names))))
+            a, e = (float(expr.subs({symbol: values[str(symbol)] for symbol in expr.free_symbols}))
+                    for expr in (answer, expected))
+            if not np.isclose(a, e, rtol=rtol, atol=1e-12 * (1.0 + abs(e))):
+                return False
+        return True
+    return compare
+
+
+def _R_off_manifold():
+    return slider_crank_system().orthogonal_complement(np.array(OFF_MANIFOLD))
+
+
+def _perturbed_accelerations():
+    system = slider_crank_system()
+    state = initial_state(system, CASES[2].phi0, CASES[2].dphi0)
+    s = state.s + np.array([0.0, 0.0, SLIDER_OFFSET])
+    return Orthogonal(5, 5).accelerations(system, 0.0, s, state.sd)
+
+
+def _det_Phi_z_with_psi_independent():
+    model = slider_crank_model()
+    psi_first = dataclasses.replace(model, independent=(model.coordinates[1],))
+    jacobian = derive(psi_first).jacobian
+    return sp.simplify(jacobian[:, list(psi_first.dependent_index)].det())
+
+
+def _nfev_ratio():
+    system = slider_crank_system()
+    state = initial_state(system, CASES[2].phi0, CASES[2].dphi0)
+    runs = [simulate(system, state, 10.0, formulation=formulation, method="RK45", rtol=1e-6, atol=1e-6)
+            for formulation in (Orthogonal(5, 5), Baumgarte(5, 5))]
+    return runs[0].nfev / runs[1].nfev
+
+
+CHECKS = {
+    "4.1": Check("4.1", _R_off_manifold, entries(1e-9, 1e-12),
+                 "E goes in the row of phi; the rows of psi and x_C hold minus the solution of "
+                 "Phi_z X = Phi_q. Did you keep the sign?",
+                 lambda expected: -np.asarray(expected)),
+    "4.2": Check("4.2", _perturbed_accelerations, numeric(1e-8, 1e-10),
+                 "the lower rows of p are Baumgarte's p2~ of (17), with alpha = beta = 5 and the nonzero "
+                 "f and Phi_s s' of this state; the upper rows are R^T p1.", scaled()),
+    "4.3": Check("4.3", _det_Phi_z_with_psi_independent, symbolic(),
+                 "Phi_z now holds the columns of phi and x_C, in that order; differentiate (27) and (28) "
+                 "with respect to each.",
+                 lambda expected: -expected),
+    "4.4": Check("4.4", _nfev_ratio, numeric(1e-2, 0),
+                 "divide the orthogonal run's nfev by the Baumgarte run's, both from the same state with the "
+                 "same method and tolerances.", scaled()),
+    "4.5": Check("4.5", lambda: "b", choice,
+                 "in the proof of (18), was f(s) = 0 or any value of lambda used?",
+                 lambda expected: "c"),
+}
+
+check = make_check(CHECKS)

@@ -1,0 +1,72 @@
+"""Checks for exercises/06-four-cases.md."""
+
+import math
+
+import numpy as np
+
+from closedloop import Baumgarte, Minimal, simulate
+from closedloop.slider_crank import (CASES, READINGS, classify_motion, initial_state, reading_outcomes,
+                                     slider_crank_system)
+
+from . import Check, choice, make_check, numeric, scaled
+
+
+def _run(system, phi0, dphi0, t_end=20.0, formulation=None):
+    """The chapter's setup: Baumgarte(5, 5) unless told otherwise, DOP853, rtol = atol = 1e-9."""
+    formulation = Baumgarte(5, 5) if formulation is None else formulation
+    return simulate(system, initial_state(system, phi0, dphi0), t_end, formulation=formulation,
+                    method="DOP853", rtol=1e-9, atol=1e-9)
+
+
+def _new_start():
+    return classify_motion(_run(slider_crank_system(), math.pi, 1.2))
+
+
+def _case_3_excursion():
+    case = CASES[3]
+    result = _run(slider_crank_system(), case.phi0, case.dphi0)
+    return np.max(np.abs(result.coordinate("phi") - case.phi0))
+
+
+def _case_3_sticks_at():
+    case = CASES[3]
+    result = _run(slider_crank_system(), case.phi0, case.dphi0, 40.0, Minimal())
+    return result.sticking_intervals[0][0]
+
+
+def _matching_readings():
+    outcomes = reading_outcomes()
+    return sum(all(o.motion == CASES[o.case].finding for o in outcomes if o.reading == name)
+               for name in READINGS)
+
+
+def _without_gas():
+    """'c' if case 3 rotates without the gas force, 'b' if it swings undamped, 'a' if its swing decays."""
+    case = CASES[3]
+    result = _run(slider_crank_system(gas=False), case.phi0, case.dphi0)
+    if classify_motion(result) == "full rotation":
+        return "c"
+    phi, third = result.coordinate("phi"), result.t[-1] / 3
+    first, last = phi[result.t <= third].max(), phi[result.t >= 2 * third].max()
+    return "b" if math.isclose(first, last, rel_tol=1e-3) else "a"
+
+
+CHECKS = {
+    "6.1": Check("6.1", _new_start, choice,
+                 "simulate 20 s and ask classify_motion; compare the start with cases 1 and 4.",
+                 lambda expected: "full rotation" if expected == "oscillation" else "oscillation"),
+    "6.2": Check("6.2", _case_3_excursion, numeric(1e-3, 1e-6),
+                 "take the largest |phi - phi0| over the whole run, in radians, from the unwrapped phi "
+                 "that simulate returns.", scaled()),
+    "6.3": Check("6.3", _case_3_sticks_at, numeric(0, 0.05),
+                 "run 40 s with formulation=Minimal(); the result's sticking_intervals holds (start, end) "
+                 "pairs.", scaled()),
+    "6.4": Check("6.4", _matching_readings, numeric(0, 0),
+                 "a reading counts only if all four of its cases agree with CASES[n].finding.",
+                 lambda expected: expected + 1),
+    "6.5": Check("6.5", _without_gas, choice,
+                 "with gas=False only gravity and the drive torque act; compare the largest phi of the "
+                 "first and the last swings.", lambda expected: "a" if expected != "a" else "b"),
+}
+
+check = make_check(CHECKS)

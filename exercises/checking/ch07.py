@@ -1,0 +1,143 @@
+"""Checks for exercises/07-conclusions.md."""
+
+import math
+
+import numpy as np
+import sympy as sp
+from scipy.integrate import cumulative_trapezoid
+
+from closedloop import Baumgarte, MultibodyModel, System, consistent_initial_state, simulate
+from closedloop.slider_crank import (CASES, drive_torque, initial_state, slider_crank_model,
+                                     slider_crank_system)
+
+from . import Check, choice, make_check, numeric, scaled
+
+#: The data of the four-bar exercises 7.4 and 7.5.
+FOUR_BAR_DATA = {"l0": 4.0, "l1": 1.0, "l2": 3.5, "l3": 3.0, "m1": 1.0, "m2": 3.0, "m3": 2.5, "g": 9.81}
+FOUR_BAR_START = dict(q0=[math.pi / 2], qd0=[2.0], z_guess=[0.5, 2.0])
+
+
+def _run(system, phi0, dphi0, t_end, t_eval=None):
+    """Chapter 6's setup: Baumgarte(5, 5), DOP853, rtol = atol = 1e-9."""
+    return simulate(system, initial_state(system, phi0, dphi0), t_end, formulation=Baumgarte(5, 5),
+                    method="DOP853", rtol=1e-9, atol=1e-9, t_eval=t_eval)
+
+
+def _amplitude():
+    """A(l1, a1, m1, l2, a2, m2, g) with Pi = A sin(phi) on the paper's branch, from the model's Pi."""
+    model = slider_crank_model()
+    phi, psi, _ = model.coordinates
+    symbol = {str(p): p for p in model.parameters}
+    on_branch = model.potential_energy.subs(sp.sin(psi), symbol["l1"] * sp.sin(phi) / symbol["l2"])  # (28)
+    return sp.simplify(on_branch / sp.sin(phi))
+
+
+def _same_expression(answer, expected):
+    """Equal as functions of expected's symbols, at random points (names, not identities, must match)."""
+    try:
+        answer = sp.sympify(answer)
+        symbols = {str(s): s for s in expected.free_symbols}
+        if not {str(s) for s in answer.free_symbols} <= set(symbols):
+            return False
+        rng = np.random.default_rng(7)
+        for _ in range(5):
+            values = {name: rng.uniform(0.5, 3.0) for name in symbols}
+            got = complex(answer.subs({s: values[str(s)] for s in answer.free_symbols}))
+            want = complex(expected.subs({s: values[str(s)] for s in expected.free_symbols}))
+            if not np.isclose(got, want, rtol=1e-9, atol=1e-12):
+                return False
+        return True
+    except Exception:
+        return False
+
+
+def _amplitude_without_rod(expected):
+    """A wrong amplitude: the rod's own weight about its end A left out (a2 = 0)."""
+    return expected.subs(sp.Symbol("a2"), 0)
+
+
+def _first_turn_torque_work():
+    case = CASES[4]
+    result = _run(slider_crank_system(), case.phi0, case.dphi0, 20.0, np.linspace(0.0, 20.0, 4001))
+    turned = result.coordinate("phi") - case.phi0
+    work = cumulative_trapezoid(drive_torque(result.t) * result.velocity("phi"), result.t, initial=0.0)
+    end = np.argmax(turned >= 2 * math.pi)                     # first output after one full turn
+    return np.interp(2 * math.pi, turned[end - 1:end + 1], work[end - 1:end + 1])
+
+
+def _case_2_energy_change():
+    system = slider_crank_system()
+    case = CASES[2]
+    result = _run(system, case.phi0, case.dphi0, 20.0)
+    energy = system.energy(result.s, result.sd)
+    return energy[-1] - energy[0]
+
+
+def _four_bar_model():
+    """The reference four-bar: uniform bars, pivots O = (0, 0) and D = (l0, 0), Pi = 0 at y = 0."""
+    th1, th2, th3 = sp.symbols("theta1 theta2 theta3")
+    w1, w2, w3 = sp.symbols("dtheta1 dtheta2 dtheta3")
+    l0, l1, l2, l3, m1, m2, m3, g = sp.symbols("l0 l1 l2 l3 m1 m2 m3 g")
+    x2 = l1 * sp.cos(th1) + l2 / 2 * sp.cos(th2)
+    y2 = l1 * sp.sin(th1) + l2 / 2 * sp.sin(th2)
+    v2_sq = ((sp.diff(x2, th1) * w1 + sp.diff(x2, th2) * w2) ** 2
+             + (sp.diff(y2, th1) * w1 + sp.diff(y2, th2) * w2) ** 2)
+    T = m1 * l1**2 / 6 * w1**2 + m2 * v2_sq / 2 + m2 * l2**2 / 24 * w2**2 + m3 * l3**2 / 6 * w3**2
+    Pi = g * (m1 * l1 / 2 * sp.sin(th1) + m2 * y2 + m3 * l3 / 2 * sp.sin(th3))
+    loop = (l1 * sp.cos(th1) + l2 * sp.cos(th2) - l0 - l3 * sp.cos(th3),
+            l1 * sp.sin(th1) + l2 * sp.sin(th2) - l3 * sp.sin(th3))
+    return MultibodyModel(coordinates=(th1, th2, th3), velocities=(w1, w2, w3), kinetic_energy=T,
+                          potential_energy=Pi, constraints=loop, independent=(th1,),
+                          parameters=(l0, l1, l2, l3, m1, m2, m3, g))
+
+
+def _four_bar():
+    system = System(_four_bar_model(), FOUR_BAR_DATA)
+    return system, consistent_initial_state(system, **FOUR_BAR_START)
+
+
+def _four_bar_energy():
+    system, start = _four_bar()
+    return system.energy(start.s, start.sd)
+
+
+def _four_bar_crank_angle():
+    system, start = _four_bar()
+    result = simulate(system, start, 5.0, formulation=Baumgarte(5, 5), method="DOP853",
+                      rtol=1e-10, atol=1e-10)
+    return result.coordinate("theta1")[-1]
+
+
+def _gravity_over_a_turn():
+    """'b' if Pi returns to its value after a full turn of the crank (no net work), else the sign's letter."""
+    system = slider_crank_system()
+    start, turned = (initial_state(system, angle, 0.0).s for angle in (0.3, 0.3 + 2 * math.pi))
+    _, before = system.kinetic_and_potential_energy(start, np.zeros(3))
+    _, after = system.kinetic_and_potential_energy(turned, np.zeros(3))
+    work = before - after                                      # work of gravity = -(change of Pi)
+    return "b" if math.isclose(work, 0.0, abs_tol=1e-9 * abs(before)) else ("a" if work > 0 else "c")
+
+
+CHECKS = {
+    "7.1": Check("7.1", _amplitude, _same_expression,
+                 "replace sin(psi) with (28) on the branch, then divide by sin(phi); keep the symbols "
+                 "l1, a1, m1, l2, a2, m2, g of slider_crank_model().parameters, not numbers.",
+                 _amplitude_without_rod),
+    "7.2": Check("7.2", _first_turn_torque_work, numeric(1e-3, 0),
+                 "integrate M(t) phi'(t) with the trapezoidal rule from t = 0 to the time at which "
+                 "phi - phi0 first reaches 2 pi.", scaled()),
+    "7.3": Check("7.3", _case_2_energy_change, numeric(1e-2, 0),
+                 "T + Pi at t = 20 s minus T + Pi at t = 0, with system.energy, from a run with the "
+                 "chapter's settings (DOP853 at 1e-9); a loss is negative.", scaled()),
+    "7.4": Check("7.4", _four_bar_energy, numeric(1e-6, 0),
+                 "each bar's T is (m/2)|v_centre|^2 + (m l^2/24) theta'^2; Pi is measured from the "
+                 "pivots' height; start Newton from theta2 = 0.5, theta3 = 2.", scaled()),
+    "7.5": Check("7.5", _four_bar_crank_angle, numeric(1e-3, 0),
+                 "give theta1 as simulate returns it (unwrapped, not reduced to [0, 2 pi)), at t = 5 s "
+                 "exactly, from a run with a tolerance of 1e-8 or tighter.", scaled()),
+    "7.6": Check("7.6", _gravity_over_a_turn, choice,
+                 "gravity's work is minus the change of Pi; where is the mechanism after a full turn?",
+                 lambda expected: "a" if expected != "a" else "b"),
+}
+
+check = make_check(CHECKS)
