@@ -59,7 +59,7 @@ class Check:
             raise NotAnswered(f"Exercise {self.label} is not yet answered: replace the ... with your answer.")
         try:
             right = bool(self.compare(answer, self.expected_value()))
-        except (TypeError, ValueError):
+        except Exception:                       # an answer of the wrong kind is a wrong answer
             right = False
         print(f"Exercise {self.label}: " + ("right." if right else f"not right yet. Hint: {self.hint}"))
         return right
@@ -82,10 +82,13 @@ def choice(answer, expected):
 
 
 def scaled(factor=1.5, shift=1.0):
-    """A wrong numeric answer near the right one."""
+    """A wrong numeric answer near the right one (no value maps onto itself)."""
     import numpy as np
 
-    return lambda expected: np.asarray(expected, dtype=float) * factor + shift
+    def wrong(expected):
+        expected = np.asarray(expected, dtype=float)
+        return expected * factor + shift + np.abs(expected)
+    return wrong
 
 
 def make_check(checks: dict):

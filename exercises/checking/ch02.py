@@ -78,10 +78,11 @@ CHECKS = {
                  "integrate (12) with Augmented() for 20 s from case 4's consistent initial state, RK45 "
                  "with rtol = atol = 1e-6, and take the largest |f| of (32) over the run.",
                  scaled()),
-    "2.5": Check("2.5", lambda: "b", choice,
-                 "in (12), is there a differential equation for lambda? How many more differentiations "
-                 "would give one?",
-                 lambda expected: "c"),
+    "2.5": Check("2.5", lambda: "c", choice,
+                 "the differentiation index counts the time differentiations needed until every unknown, "
+                 "the multipliers included, obeys an ODE. Apply that definition to the unknowns s, v and "
+                 "lambda of (12) as posed.",
+                 lambda expected: "b"),
 }
 
 check = make_check(CHECKS)

@@ -54,6 +54,24 @@ def _rule_against_baumgarte():
     return [baumgarte.max_constraint_error / rule.max_constraint_error, rule.nfev / baumgarte.nfev]
 
 
+def _critical_kick_response(alpha=5.0, kick=1.0):
+    """Classify the solution of (15) with alpha = beta, e(0) = 0, e'(0) = kick, sampled in closed form.
+
+    The double root mu = -alpha gives e(t) = (e0 + (e0' + alpha e0) t) exp(-alpha t).
+    """
+    e0 = 0.0
+    times = np.linspace(0.0, 20.0 / alpha, 4001)[1:]
+    error = (e0 + (kick + alpha * e0) * times) * np.exp(-alpha * times)
+    changes_sign = bool(np.any(np.sign(error[1:]) != np.sign(error[:-1])))
+    rate_sign = np.sign(np.diff(error))
+    turning_points = int(np.count_nonzero(rate_sign[1:] != rate_sign[:-1]))
+    if changes_sign:
+        return "b"                                     # oscillates about zero
+    if turning_points == 1 and abs(error[-1]) < 1e-3 * error.max():
+        return "a"                                     # one peak, then decays without a sign change
+    return "c"
+
+
 CHECKS = {
     "3.1": Check("3.1", _roots, same_roots(),
                  "put f_i = exp(mu t) into one component of (15) and solve the quadratic for mu; "
@@ -71,10 +89,10 @@ CHECKS = {
                  "max |f| of Baumgarte(5, 5) over that of the rule, the second nfev of the rule over "
                  "that of Baumgarte(5, 5).",
                  scaled()),
-    "3.5": Check("3.5", lambda: "b", choice,
-                 "with alpha = beta and e0 = 0, what does (3.c) reduce to? Can it change sign for t > 0, "
-                 "and where is its derivative zero?",
-                 lambda expected: "a"),
+    "3.5": Check("3.5", _critical_kick_response, choice,
+                 "a double root mu of the characteristic equation of (15) gives the solutions exp(mu t) "
+                 "and t exp(mu t); fit their combination to the two initial conditions and sketch it.",
+                 lambda expected: "b" if expected == "a" else "a"),
 }
 
 check = make_check(CHECKS)
