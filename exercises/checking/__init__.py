@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-__all__ = ["Check", "NotAnswered", "numeric", "choice", "scaled", "make_check"]
+__all__ = ["Check", "NotAnswered", "numeric", "choice", "symbolic", "scaled", "make_check"]
 
 
 class NotAnswered(Exception):
@@ -79,6 +79,32 @@ def numeric(rtol=1e-6, atol=0.0):
 def choice(answer, expected):
     """Compare a short text answer (a letter, a word), ignoring case and spaces."""
     return str(answer).strip().lower() == str(expected).strip().lower()
+
+
+def symbolic(rtol=1e-9, points=5, seed=2018):
+    """Compare sympy expressions or matrices by their values at random points.
+
+    Symbols are matched by name, so a student's own ``sp.symbols("l1 ...")`` work;
+    the answer may not use a symbol the expected value does not have.
+    """
+    import numpy as np
+    import sympy as sp
+
+    def compare(answer, expected):
+        answer, expected = sp.Matrix([answer]) if not hasattr(answer, "shape") else sp.Matrix(answer), \
+            sp.Matrix([expected]) if not hasattr(expected, "shape") else sp.Matrix(expected)
+        names = sorted({str(symbol) for symbol in expected.free_symbols})
+        if answer.shape != expected.shape or not {str(s) for s in answer.free_symbols} <= set(names):
+            return False
+        rng = np.random.default_rng(seed)
+        for _ in range(points):
+            point = dict(zip(names, rng.uniform(0.3, 2.5, len(names))))
+            a, e = (np.array(m.subs({s: point[str(s)] for s in m.free_symbols}), dtype=float)
+                    for m in (answer, expected))
+            if not np.allclose(a, e, rtol=rtol, atol=1e-12 * (1.0 + np.abs(e).max())):
+                return False
+        return True
+    return compare
 
 
 def scaled(factor=1.5, shift=1.0):

@@ -8,7 +8,7 @@ import sympy as sp
 from closedloop import Baumgarte, Orthogonal, derive, simulate
 from closedloop.slider_crank import CASES, initial_state, slider_crank_model, slider_crank_system
 
-from . import Check, choice, make_check, numeric, scaled
+from . import Check, choice, make_check, numeric, scaled, symbolic
 
 #: The configuration of exercise 4.1: not on the constraint manifold (27)-(28).
 OFF_MANIFOLD = (2.0, 2.9, 4.0)
@@ -21,21 +21,6 @@ def entries(rtol, atol):
     compare = numeric(rtol, atol)
     return lambda answer, expected: compare(np.ravel(answer), np.ravel(expected))
 
-
-def symbolic(rtol=1e-9, points=5, seed=4):
-    """Compare sympy expressions at random values of their symbols, matched by name."""
-    def compare(answer, expected):
-        answer, expected = sp.sympify(answer), sp.sympify(expected)
-        names = sorted({str(symbol) for symbol in answer.free_symbols | expected.free_symbols})
-        rng = np.random.default_rng(seed)
-        for _ in range(points):
-            values = dict(zip(names, rng.uniform(0.3, 2.5, len(names))))
-            a, e = (float(expr.subs({symbol: values[str(symbol)] for symbol in expr.free_symbols}))
-                    for expr in (answer, expected))
-            if not np.isclose(a, e, rtol=rtol, atol=1e-12 * (1.0 + abs(e))):
-                return False
-        return True
-    return compare
 
 
 def _R_off_manifold():

@@ -17,26 +17,11 @@ from closedloop.slider_crank import (
     slider_crank_system,
 )
 
-from . import Check, choice, make_check, numeric, scaled
+from . import Check, choice, make_check, numeric, scaled, symbolic
 
 #: The time [s] and the crank's state (phi, phi') of exercise 5.3.
 FORCE_TIME, FORCE_ANGLE, FORCE_SPEED = 0.25, 5.0, 1.0
 
-
-def symbolic(rtol=1e-9, points=5, seed=5):
-    """Compare sympy expressions at random values of their symbols, matched by name."""
-    def compare(answer, expected):
-        answer, expected = sp.sympify(answer), sp.sympify(expected)
-        names = sorted({str(symbol) for symbol in answer.free_symbols | expected.free_symbols})
-        rng = np.random.default_rng(seed)
-        for _ in range(points):
-            values = dict(zip(names, rng.uniform(0.3, 2.5, len(names))))
-            a, e = (float(expr.subs({symbol: values[str(symbol)] for symbol in expr.free_symbols}))
-                    for expr in (answer, expected))
-            if not np.isclose(a, e, rtol=rtol, atol=1e-12 * (1.0 + abs(e))):
-                return False
-        return True
-    return compare
 
 
 def _without_rod_spin(expected):
