@@ -7,6 +7,7 @@ import pytest
 import sympy as sp
 
 from closedloop import MultibodyModel, System
+from closedloop.examples import four_bar_model
 from closedloop.slider_crank import slider_crank_system
 
 
@@ -52,30 +53,8 @@ def random_states(count, seed):
         yield s, rng.normal(size=3)
 
 
-def four_bar_model():
-    """A planar four-bar linkage in the vertical plane: crank theta1, coupler theta2, rocker theta3.
-
-    Uniform bars of lengths l1, l2, l3 pinned at O = (0, 0) and D = (l0, 0); the loop
-    closes with two constraints. Written only to show a new mechanism is a few lines.
-    """
-    th1, th2, th3 = sp.symbols("theta1 theta2 theta3")
-    w1, w2, w3 = sp.symbols("dtheta1 dtheta2 dtheta3")
-    l0, l1, l2, l3, m1, m2, m3, g = sp.symbols("l0 l1 l2 l3 m1 m2 m3 g")
-    # centres of mass and their velocities
-    x2 = l1 * sp.cos(th1) + l2 / 2 * sp.cos(th2)
-    y2 = l1 * sp.sin(th1) + l2 / 2 * sp.sin(th2)
-    v2_sq = sp.diff(x2, th1) * w1 + sp.diff(x2, th2) * w2
-    v2_sq = v2_sq**2 + (sp.diff(y2, th1) * w1 + sp.diff(y2, th2) * w2) ** 2
-    T = (m1 * l1**2 / 6 * w1**2 + m2 * v2_sq / 2 + m2 * l2**2 / 24 * w2**2 + m3 * l3**2 / 6 * w3**2)
-    Pi = g * (m1 * l1 / 2 * sp.sin(th1) + m2 * y2 + m3 * l3 / 2 * sp.sin(th3))
-    loop = (l1 * sp.cos(th1) + l2 * sp.cos(th2) - l0 - l3 * sp.cos(th3),
-            l1 * sp.sin(th1) + l2 * sp.sin(th2) - l3 * sp.sin(th3))
-    return MultibodyModel(coordinates=(th1, th2, th3), velocities=(w1, w2, w3), kinetic_energy=T,
-                          potential_energy=Pi, constraints=loop, independent=(th1,),
-                          parameters=(l0, l1, l2, l3, m1, m2, m3, g))
-
-
 @pytest.fixture(scope="session")
 def four_bar():
+    """The library's example four-bar linkage (closedloop.examples), with a Grashof crank-rocker's data."""
     return System(four_bar_model(), {"l0": 4.0, "l1": 1.0, "l2": 3.5, "l3": 3.0,
                                      "m1": 1.0, "m2": 3.0, "m3": 2.5, "g": 9.81})

@@ -5,7 +5,8 @@ import math
 import numpy as np
 import sympy as sp
 
-from closedloop import Baumgarte, MultibodyModel, System, consistent_initial_state, simulate
+from closedloop import Baumgarte, System, consistent_initial_state, simulate
+from closedloop.examples import four_bar_model
 from closedloop.slider_crank import (CASES, initial_state, slider_crank_model,
                                      slider_crank_system)
 
@@ -56,26 +57,8 @@ def _case_2_energy_change():
     return energy[-1] - energy[0]
 
 
-def _four_bar_model():
-    """The reference four-bar: uniform bars, pivots O = (0, 0) and D = (l0, 0), Pi = 0 at y = 0."""
-    th1, th2, th3 = sp.symbols("theta1 theta2 theta3")
-    w1, w2, w3 = sp.symbols("dtheta1 dtheta2 dtheta3")
-    l0, l1, l2, l3, m1, m2, m3, g = sp.symbols("l0 l1 l2 l3 m1 m2 m3 g")
-    x2 = l1 * sp.cos(th1) + l2 / 2 * sp.cos(th2)
-    y2 = l1 * sp.sin(th1) + l2 / 2 * sp.sin(th2)
-    v2_sq = ((sp.diff(x2, th1) * w1 + sp.diff(x2, th2) * w2) ** 2
-             + (sp.diff(y2, th1) * w1 + sp.diff(y2, th2) * w2) ** 2)
-    T = m1 * l1**2 / 6 * w1**2 + m2 * v2_sq / 2 + m2 * l2**2 / 24 * w2**2 + m3 * l3**2 / 6 * w3**2
-    Pi = g * (m1 * l1 / 2 * sp.sin(th1) + m2 * y2 + m3 * l3 / 2 * sp.sin(th3))
-    loop = (l1 * sp.cos(th1) + l2 * sp.cos(th2) - l0 - l3 * sp.cos(th3),
-            l1 * sp.sin(th1) + l2 * sp.sin(th2) - l3 * sp.sin(th3))
-    return MultibodyModel(coordinates=(th1, th2, th3), velocities=(w1, w2, w3), kinetic_energy=T,
-                          potential_energy=Pi, constraints=loop, independent=(th1,),
-                          parameters=(l0, l1, l2, l3, m1, m2, m3, g))
-
-
 def _four_bar():
-    system = System(_four_bar_model(), FOUR_BAR_DATA)
+    system = System(four_bar_model(), FOUR_BAR_DATA)
     return system, consistent_initial_state(system, **FOUR_BAR_START)
 
 
