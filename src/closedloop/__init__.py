@@ -9,6 +9,7 @@ from .errors import (ClosedLoopError, ConvergenceError, InputError, IntegrationE
                      SingularConfigurationError)
 from .formulations import (Augmented, Baumgarte, Minimal, Orthogonal, baumgarte_from_step, baumgarte_p2,
                            formulation_from_name)
+from .formulations import NullSpace, null_space_basis
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
 from .model import DerivedModel, MultibodyModel, System, derive
@@ -20,5 +21,6 @@ __all__ = [
     "Augmented", "Baumgarte", "Orthogonal", "Minimal", "baumgarte_from_step", "baumgarte_p2", "formulation_from_name",
     "MultibodyModel", "DerivedModel", "derive", "System", "SwitchedForce",
     "InitialState", "consistent_initial_state", "simulate", "SimulationResult",
+    "NullSpace", "null_space_basis",
     "ClosedLoopError", "InputError", "ConvergenceError", "SingularConfigurationError", "IntegrationError",
 ]

@@ -6,7 +6,10 @@ Each formulation is a small immutable object over the same :class:`~closedloop.m
 - :class:`Baumgarte`: (16)-(17), the constraint error obeys (15);
 - :class:`Orthogonal`: the ODE (24)-(26), lambda removed with R of (20);
 - :class:`Minimal`: coordinate partitioning, an ODE in q alone with z from
-  Newton on f = 0 at every evaluation: the accuracy reference.
+  Newton on f = 0 at every evaluation: the accuracy reference;
+- :class:`NullSpace`: (24)-(26) with R replaced by a basis of the null space
+  of Phi_s that needs no fixed partition (SVD, or partitioning with pivoting),
+  so it passes the dead positions where Phi_z of (20) is singular.
 
 A formulation knows how to pack ``(s, s')`` into the integrator's state vector
 ``y``, how to unpack it, and how to build the right-hand side ``y' = F(t, y)``
@@ -20,15 +23,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
+from .errors import ConvergenceError, InputError, SingularConfigurationError, at_time
 from .kinematics import solve_dependent
-from .model import _orthogonal_complement, solve_augmented, solve_small
+from .model import _orthogonal_complement, condition_number, solve_augmented, solve_small
 
 __all__ = [
     "Augmented",
     "Baumgarte",
     "Orthogonal",
     "Minimal",
+    "NullSpace",
+    "null_space_basis",
+    "RANK_LIMIT",
     "baumgarte_from_step",
     "baumgarte_p2",
     "formulation_from_name",
@@ -172,7 +178,11 @@ class Minimal:
         (R^T M R) q'' = R^T (p1 - M c)
 
     The constraints hold to Newton's tolerance at every point, so this is the
-    accuracy reference for the other formulations.
+    accuracy reference for the other formulations.  It can not pass a
+    configuration where Phi_z is singular (a dead position of q): there it
+    raises :class:`~closedloop.errors.SingularConfigurationError`, as it does
+    when Newton's solution jumps to another assembly branch (det Phi_z changes
+    sign).  :class:`NullSpace` passes such configurations.
     """
 
     name = "minimal"
@@ -189,7 +199,7 @@ class Minimal:
         the right-hand side just was) costs nothing.
         """
         f, qi, zi = system.f, system.q_index, system.z_index
-        last = {"y": None, "s": None, "R": None}
+        last = {"y": None, "s": None, "R": None, "side": None}
 
         def unpack(y, t=None):
             s, R = unpack_with_R(y, t)
@@ -201,13 +211,31 @@ class Minimal:
             guess = last["s"][zi]
             if last["R"] is not None:
                 guess = guess + last["R"][zi] @ (y[:f] - last["s"][qi])
-            s, Phi = solve_dependent(system, y[:f], guess, t, return_jacobian=True)
-            R = _orthogonal_complement(Phi, qi, zi, t)
+            try:
+                s, Phi = solve_dependent(system, y[:f], guess, t, return_jacobian=True)
+                R = _orthogonal_complement(Phi, qi, zi, t)
+            except (ConvergenceError, SingularConfigurationError) as error:
+                raise SingularConfigurationError(
+                    f"minimal coordinates failed{at_time(t)}: {error} [cond(Phi_z) was "
+                    f"{condition_number(system.jacobian(last['s'])[:, zi]):.3g} at the last solved state]; "
+                    "q can not pass a dead position of this partition: use the NullSpace formulation"
+                ) from None
+            side = np.sign(np.linalg.det(Phi[:, zi]))
+            if side != last["side"]:
+                raise SingularConfigurationError(
+                    f"minimal coordinates left their assembly branch{at_time(t)}: det(Phi_z) changed sign "
+                    f"(cond(Phi_z) was {condition_number(system.jacobian(last['s'])[:, zi]):.3g} at the last "
+                    "state on the branch), so the path met a dead position of q, or Newton's z jumped to "
+                    "another branch near one; q alone can not pass it: use the NullSpace formulation "
+                    "(near a bifurcation, also tighten rtol and atol)"
+                )
             last.update(y=y.copy(), s=s, R=R)
             return s, R
 
         def seed(s_start):
-            last.update(y=None, s=np.array(s_start, dtype=float), R=None)
+            s_start = np.array(s_start, dtype=float)
+            last.update(y=None, s=s_start, R=None,
+                        side=np.sign(np.linalg.det(system.jacobian(s_start)[:, zi])))
 
         unpack.seed = seed
         unpack.with_R = unpack_with_R
@@ -239,7 +267,91 @@ class Minimal:
         return R @ qdd + c
 
 
-FORMULATION_NAMES = ("augmented", "baumgarte", "orthogonal", "minimal")
+#: sigma_min(Phi_s) / sigma_max(Phi_s) below which Phi_s counts as rank deficient.
+RANK_LIMIT = 1e-10
+NULL_SPACE_BASES = ("svd", "pivoted")
+
+
+def null_space_basis(Phi, basis="svd", t=None):
+    """An n x f matrix N whose columns span the null space of Phi_s: Phi_s N = 0 (18).
+
+    Any such N can replace R of (20) in (24)-(26): N = R T with T invertible,
+    so ``N^T M s'' = N^T p1`` and ``R^T M s'' = R^T p1`` are the same equations.
+
+    Parameters
+    ----------
+    Phi : ndarray, shape (r, n)
+        Phi_s of (9).
+    basis : {"svd", "pivoted"}
+        ``"svd"``: the last f right singular vectors of Phi_s, an orthonormal
+        basis.  ``"pivoted"``: coordinate partitioning with pivoting, R of (20)
+        for the partition that QR with column pivoting finds best conditioned
+        (its first r pivot columns become z) at this configuration.
+    t : float, optional
+        Time, only for error messages.
+
+    Raises
+    ------
+    SingularConfigurationError
+        If Phi_s itself loses rank (sigma_min / sigma_max < :data:`RANK_LIMIT`):
+        the constraints are dependent, assembly branches meet there, and no
+        choice of coordinates passes such a bifurcation.
+    """
+    r, n = Phi.shape
+    _, singular_values, Vt = np.linalg.svd(Phi)
+    if singular_values[-1] < RANK_LIMIT * singular_values[0]:
+        condition = math.inf if singular_values[-1] == 0 else singular_values[0] / singular_values[-1]
+        raise SingularConfigurationError(
+            f"Phi_s lost rank{at_time(t)}: cond(Phi_s) = {condition:.3g} > {1 / RANK_LIMIT:.0e}; the "
+            "constraints are dependent (assembly branches meet, a bifurcation) and no choice of "
+            "coordinates passes it; change the geometry or stop before it"
+        )
+    if basis == "svd":
+        return Vt[r:].T
+    from scipy.linalg import qr
+
+    pivots = qr(Phi, mode="r", pivoting=True)[1]
+    return _orthogonal_complement(Phi, np.sort(pivots[r:]), np.sort(pivots[:r]), t)
+
+
+@dataclass(frozen=True)
+class NullSpace(_Stabilised):
+    """The orthogonality ODE (24)-(26) with a null-space basis that needs no fixed partition.
+
+    ``A = [N^T M; Phi_s]``, ``p = [N^T p1; p2~]`` with N from
+    :func:`null_space_basis` in place of R of (20), and Baumgarte's p2~ of (17)
+    in the constraint rows.  N exists wherever Phi_s has full row rank, so
+    this formulation carries a simulation through the dead positions where
+    Phi_z (and so R of (20)) is singular, which :class:`Minimal` and
+    :class:`Orthogonal` can not pass.  It still stops, with a clear error,
+    where Phi_s itself loses rank.
+
+    Parameters
+    ----------
+    alpha, beta : float, >= 0
+        Baumgarte gains in p2~, as for :class:`Orthogonal`.
+    basis : {"svd", "pivoted"}
+        How N is computed; see :func:`null_space_basis`.
+    """
+
+    basis: str = "svd"
+    name = "nullspace"
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.basis not in NULL_SPACE_BASES:
+            raise InputError(f"basis: unknown {self.basis!r}; choose one of {', '.join(NULL_SPACE_BASES)}")
+
+    def accelerations(self, system, t, s, sd, mode=None):
+        """s'' from (26) with N in place of R."""
+        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
+        N = null_space_basis(Phi, self.basis, t)
+        A = np.vstack((N.T @ M, Phi))
+        p = np.concatenate((N.T @ p1, baumgarte_p2(Phi, gamma, f, sd, self.alpha, self.beta)))
+        return np.linalg.solve(A, p)
+
+
+FORMULATION_NAMES = ("augmented", "baumgarte", "orthogonal", "minimal", "nullspace")
 
 
 def formulation_from_name(name, alpha=None, beta=None):
@@ -247,17 +359,18 @@ def formulation_from_name(name, alpha=None, beta=None):
 
     Parameters
     ----------
-    name : {"augmented", "baumgarte", "orthogonal", "minimal"}
+    name : {"augmented", "baumgarte", "orthogonal", "minimal", "nullspace"}
     alpha, beta : float, optional
-        Only for "baumgarte" and "orthogonal" (default 5 and 5, Baumgarte's choice).
+        Only for "baumgarte", "orthogonal" and "nullspace" (default 5 and 5,
+        Baumgarte's choice).
     """
     if name not in FORMULATION_NAMES:
         raise InputError(f"formulation: unknown {name!r}; choose one of {', '.join(FORMULATION_NAMES)}")
     gains = {k: v for k, v in (("alpha", alpha), ("beta", beta)) if v is not None}
-    if name in ("baumgarte", "orthogonal"):
-        return {"baumgarte": Baumgarte, "orthogonal": Orthogonal}[name](**gains)
+    if name in ("baumgarte", "orthogonal", "nullspace"):
+        return {"baumgarte": Baumgarte, "orthogonal": Orthogonal, "nullspace": NullSpace}[name](**gains)
     if gains:
         raise InputError(
-            f"alpha, beta: only the baumgarte and orthogonal formulations take gains, not {name!r}"
+            f"alpha, beta: only the baumgarte, orthogonal and nullspace formulations take gains, not {name!r}"
         )
     return Augmented() if name == "augmented" else Minimal()

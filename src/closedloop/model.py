@@ -15,6 +15,7 @@ and is cached; every numeric call afterwards is plain numpy.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Callable
@@ -358,16 +359,47 @@ def solve_small(A, b):
     return np.linalg.solve(A, b)
 
 
+#: cond(Phi_z) above which R of (20) is refused: its entries then keep fewer than
+#: about 16 - log10(1e10) = 6 significant digits, fewer than any tolerance in this book.
+CONDITION_LIMIT = 1e10
+
+
+def condition_number(A):
+    """The 2-norm condition number sigma_max / sigma_min of a matrix (``inf`` if singular).
+
+    Closed form for 1 x 1 and 2 x 2 matrices (cheap enough to check at every
+    right-hand-side evaluation), singular values otherwise.
+    """
+    A = np.asarray(A, dtype=float)
+    if A.shape == (1, 1):
+        return 1.0 if A[0, 0] != 0.0 else math.inf
+    if A.shape == (2, 2):
+        det = abs(A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0])
+        frobenius2 = float(np.sum(A * A))
+        if det == 0.0:
+            return math.inf
+        # sigma_1^2 + sigma_2^2 = |A|_F^2 and sigma_1 sigma_2 = |det A|
+        root = math.sqrt(max(frobenius2 * frobenius2 - 4.0 * det * det, 0.0))
+        return (frobenius2 + root) / (2.0 * det)
+    singular_values = np.linalg.svd(A, compute_uv=False)
+    return math.inf if singular_values[-1] == 0.0 else float(singular_values[0] / singular_values[-1])
+
+
 def _orthogonal_complement(Phi, q_index, z_index, t=None):
-    """R of (20) from Phi_s, in the order of s; see :meth:`System.orthogonal_complement`."""
+    """R of (20) from Phi_s, in the order of s; see :meth:`System.orthogonal_complement`.
+
+    Raises :class:`~closedloop.errors.SingularConfigurationError` when
+    cond(Phi_z) exceeds :data:`CONDITION_LIMIT`.
+    """
     Phi_q, Phi_z = Phi[:, q_index], Phi[:, z_index]
-    try:
-        X = solve_small(Phi_z, Phi_q)
-    except np.linalg.LinAlgError:
+    condition = condition_number(Phi_z)
+    if condition > CONDITION_LIMIT:
         raise SingularConfigurationError(
-            f"Phi_z is singular{at_time(t)} (cond = inf): R of (20) does not exist at this "
-            "configuration; choose other independent coordinates"
-        ) from None
+            f"Phi_z is singular{at_time(t)}: cond(Phi_z) = {condition:.3g} > {CONDITION_LIMIT:.0e}, so R of "
+            "(20) does not exist at this configuration (a dead position of the independent coordinates); "
+            "use the NullSpace formulation, which needs no partition"
+        )
+    X = solve_small(Phi_z, Phi_q)
     R = np.empty((Phi.shape[1], len(q_index)))
     R[q_index] = np.eye(len(q_index))
     R[z_index] = -X

@@ -21,6 +21,27 @@ function is > 0 on the "off" branch and < 0 on the "on" branch.  Release happens
 at the first time (sampled every ``sticking_resolution`` seconds, then refined by
 root finding) when either rate changes sign.  A stuck state costs no
 right-hand-side evaluations, so no integration can chatter or hang there.
+
+Naive switching
+---------------
+``switching="naive"`` is the contrast the book needs: no events, no sticking
+rule, the force's branch chosen from the current state at every evaluation (a
+plain if-statement).  Such a run chatters on ``x_C' = 0``; ``max_nfev`` bounds
+it, and hitting the bound raises an :class:`IntegrationError` that carries the
+partial result.
+
+Branch guard
+------------
+Where det Phi_z of the model's partition changes sign, a redundant-coordinate
+formulation either passes a dead position (Phi_s keeps full rank: fine) or
+jumps to another assembly branch near a configuration where Phi_s nearly loses
+rank.  At every such crossing simulate() computes the Kantorovich number
+``h = sigma_max(Phi_s) |f| / sigma_min(Phi_s)^2``: Newton's method from the
+state converges to a unique nearby solution when h < 1/2 (sigma_max standing
+for the Lipschitz constant of Phi_s, which it matches for constraints made of
+lengths times sines and cosines).  Above :data:`BRANCH_LIMIT` the state is no
+longer unambiguously on one branch, and the run stops with a
+:class:`SingularConfigurationError`.
 """
 
 from __future__ import annotations
@@ -33,15 +54,19 @@ import numpy as np
 from scipy.integrate import OdeSolver, solve_ivp
 from scipy.optimize import brentq
 
-from .errors import InputError, IntegrationError
-from .formulations import Augmented, Baumgarte, Minimal, Orthogonal
+from .errors import InputError, IntegrationError, SingularConfigurationError
+from .formulations import Augmented, Baumgarte, Minimal, NullSpace, Orthogonal
 from .kinematics import InitialState
 
-__all__ = ["simulate", "SimulationResult", "SwitchEvent", "SOLVER_METHODS"]
+__all__ = ["simulate", "SimulationResult", "SwitchEvent", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT"]
 
 #: The solve_ivp methods simulate() accepts by name (an OdeSolver subclass is accepted too).
 SOLVER_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
-_FORMULATIONS = (Augmented, Baumgarte, Orthogonal, Minimal)
+_FORMULATIONS = (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace)
+#: How switched forces are handled: with events and the sticking rule, or naively.
+SWITCHING = ("events", "naive")
+#: Kantorovich number above which a crossing of det Phi_z = 0 is refused (see "Branch guard").
+BRANCH_LIMIT = 0.01
 #: Constraint error above which an initial state is refused as inconsistent.
 INITIAL_TOLERANCE = 1e-8
 _MIN_PROGRESS = 1e-12   # a segment shorter than this (s) makes no progress
@@ -84,6 +109,11 @@ class SimulationResult:
         Time intervals spent stuck (see the module's sticking rule).
     stopped_at : float or None
         Where ``stop_when`` ended the run early, else None.
+    partition_singularities : list of float
+        Times where det Phi_z of the model's partition changed sign (dead
+        positions passed by a redundant-coordinate formulation).
+    switching : str
+        "events" or "naive" (see the module's notes).
     formulation, method : str
     rtol, atol : float
     coordinate_names : tuple of str
@@ -100,6 +130,8 @@ class SimulationResult:
     switch_events: list = field(default_factory=list)
     sticking_intervals: list = field(default_factory=list)
     stopped_at: float | None = None
+    partition_singularities: list = field(default_factory=list)
+    switching: str = "events"
     formulation: str = ""
     method: str = ""
     rtol: float = math.nan
@@ -121,7 +153,7 @@ class SimulationResult:
 
 
 def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, atol, t_eval,
-              sticking_resolution, options):
+              sticking_resolution, options, switching="events", max_nfev=None):
     for name, value in (("t_start", t_start), ("t_end", t_end)):
         if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value)):
             raise InputError(f"{name}: must be a finite number, got {value!r}")
@@ -131,7 +163,13 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
         if not (np.all(np.isfinite(value)) and np.all(np.asarray(value) > 0)):
             raise InputError(f"{name}: must be finite and > 0, got {value!r}")
     if not isinstance(formulation, _FORMULATIONS):
-        raise InputError(f"formulation: expected Augmented, Baumgarte, Orthogonal or Minimal, got {formulation!r}")
+        raise InputError(
+            f"formulation: expected Augmented, Baumgarte, Orthogonal, Minimal or NullSpace, got {formulation!r}"
+        )
+    if switching not in SWITCHING:
+        raise InputError(f"switching: unknown {switching!r}; choose one of {', '.join(SWITCHING)}")
+    if max_nfev is not None and not (isinstance(max_nfev, (int, np.integer)) and max_nfev > 0):
+        raise InputError(f"max_nfev: must be a whole number > 0, got {max_nfev!r}")
     if not (method in SOLVER_METHODS or (isinstance(method, type) and issubclass(method, OdeSolver))):
         raise InputError(f"method: unknown {method!r}; choose one of {', '.join(SOLVER_METHODS)}")
     reserved = {"events", "dense_output", "args", "vectorized"} & set(options)
@@ -161,7 +199,7 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
 
 def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None, method="RK45",
              rtol=1e-9, atol=1e-9, t_eval=None, multipliers=False, stop_when=None,
-             sticking_resolution=0.01, max_segments=100_000, **options):
+             sticking_resolution=0.01, max_segments=100_000, switching="events", max_nfev=None, **options):
     """Integrate Lagrange's equations with multipliers from a consistent initial state.
 
     Parameters
@@ -173,7 +211,7 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     t_end : float, optional
         Final time, > ``t_start``.  Default 20 s.
     t_start : float, optional
-    formulation : Augmented, Baumgarte, Orthogonal or Minimal, optional
+    formulation : Augmented, Baumgarte, Orthogonal, Minimal or NullSpace, optional
         Default ``Baumgarte(5, 5)``, Baumgarte's own choice.
     method : str or OdeSolver, optional
         Any solve_ivp method; default "RK45".
@@ -192,6 +230,14 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
         Sampling interval (s) for the release of a stuck state.
     max_segments : int, optional
         Bound on the number of segments between switches.
+    switching : {"events", "naive"}, optional
+        "events" (default): stop at every switch and apply the sticking rule.
+        "naive": choose the force's branch from the state at every evaluation,
+        with no events (a contrast that chatters; see the module's notes).
+    max_nfev : int, optional
+        Bound on the right-hand-side evaluations of the whole run; default none.
+        A naive run checks it between steps, so it may pass it by one step's
+        evaluations.
     **options
         Further solve_ivp options (``max_step``, ``first_step``, ...).
 
@@ -204,18 +250,36 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     InputError
         Before any integration, for a parameter outside its range.
     IntegrationError
-        If solve_ivp fails, the state stops being finite, or the state chatters
-        on a switch: the message names the time.
+        If solve_ivp fails, the state stops being finite, the state chatters
+        on a switch, or the run needs more than ``max_nfev`` evaluations: the
+        message names the time.  With ``switching="naive"`` the error's
+        attribute ``result`` holds the run up to that time.
+    SingularConfigurationError
+        If the formulation meets a configuration it can not pass (see the
+        formulations and the branch guard above): the message names the time
+        and the condition number that went bad.
     """
     formulation = Baumgarte() if formulation is None else formulation
     t_eval = _validate(system, initial_state, t_start, t_end, formulation, method, rtol, atol,
-                       t_eval, sticking_resolution, options)
+                       t_eval, sticking_resolution, options, switching, max_nfev)
     start = time.process_time()
     if stop_when is not None and not callable(stop_when):
         raise InputError("stop_when: expected a callable stop_when(t, s, sd) -> float")
     run = _Run(system, formulation, method, rtol, atol, t_eval, t_end, sticking_resolution, options,
-               stop_when)
-    run.integrate(t_start, initial_state.s, initial_state.sd, max_segments)
+               stop_when, max_nfev)
+    if switching == "naive":
+        message = run.integrate_naive(t_start, initial_state.s, initial_state.sd)
+        if message is not None:
+            error = IntegrationError(message)
+            error.result = _result(system, formulation, run, start, False, switching)
+            raise error
+    else:
+        run.integrate(t_start, initial_state.s, initial_state.sd, max_segments)
+    return _result(system, formulation, run, start, multipliers, switching)
+
+
+def _result(system, formulation, run, start, multipliers, switching):
+    """The SimulationResult of a finished (or, for a naive run, capped) run."""
     t, s, sd, modes = run.outputs()
     f_norm = np.empty(t.size)
     fd_norm = np.empty(t.size)
@@ -228,23 +292,29 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     return SimulationResult(
         t=t, s=s, sd=sd, constraint_error=f_norm, velocity_constraint_error=fd_norm,
         multipliers=lam, nfev=run.nfev, cpu_time=cpu_time, switch_events=run.switch_events,
-        sticking_intervals=run.sticking_intervals, stopped_at=run.stopped_at, formulation=formulation.name,
-        method=method if isinstance(method, str) else method.__name__, rtol=rtol, atol=atol,
+        sticking_intervals=run.sticking_intervals, stopped_at=run.stopped_at,
+        partition_singularities=run.partition_singularities, switching=switching, formulation=formulation.name,
+        method=run.method if isinstance(run.method, str) else run.method.__name__, rtol=run.rtol, atol=run.atol,
         coordinate_names=tuple(str(c) for c in system.model.coordinates),
     )
+
+
+class _BudgetExceeded(Exception):
+    """Raised inside the right-hand side when max_nfev is used up."""
 
 
 class _Run:
     """The segment loop of one simulate() call (no state survives the call)."""
 
     def __init__(self, system, formulation, method, rtol, atol, t_eval, t_end, resolution, options,
-                 stop_when=None):
+                 stop_when=None, max_nfev=None):
         self.system, self.formulation, self.method = system, formulation, method
         self.rtol, self.atol, self.options = rtol, atol, options
         self.t_eval, self.t_end, self.resolution = t_eval, t_end, resolution
         self.force = system.force
         self.names = self.force.switch_names if self.force is not None else ()
-        self.nfev = 0
+        self.nfev, self.max_nfev = 0, max_nfev
+        self.partition_singularities = []
         self.stop_when, self.stopped_at = stop_when, None
         self.switch_events, self.sticking_intervals = [], []
         self._pieces = []          # (t, s, sd, mode, stuck) per segment
@@ -340,19 +410,36 @@ class _Run:
             events.append(self._event(unpack, i, mode[i]))
         if self.stop_when is not None:
             events.append(self._stop_event(unpack))
+        terminal = len(events)
+        if not isinstance(formulation, Minimal):     # Minimal guards its branch itself
+            events.append(self._branch_event(unpack))
         t_eval = None
         if self.t_eval is not None:
             t_eval = self.t_eval[self._next_output:]
             t_eval = t_eval[t_eval >= t0]
         reached = [t0]                              # the last time the right-hand side was evaluated
 
+        budget = math.inf if self.max_nfev is None else self.max_nfev - self.nfev
+        count = [0]
+
         def timed_rhs(t, y):
             reached[0] = t
+            count[0] += 1
+            if count[0] > budget:
+                raise _BudgetExceeded
             return rhs(t, y)
 
-        sol = solve_ivp(timed_rhs, (t0, self.t_end), y0, method=self.method, rtol=self.rtol,
-                        atol=self.atol, t_eval=t_eval, events=events or None, **self.options)
+        try:
+            sol = solve_ivp(timed_rhs, (t0, self.t_end), y0, method=self.method, rtol=self.rtol,
+                            atol=self.atol, t_eval=t_eval, events=events or None, **self.options)
+        except _BudgetExceeded:
+            raise IntegrationError(
+                f"{self.method} used up max_nfev = {self.max_nfev} right-hand-side evaluations at "
+                f"t = {reached[0]:.6g} s of {self.t_end:g} s; loosen rtol, or raise max_nfev"
+            ) from None
         self.nfev += sol.nfev
+        if terminal < len(events):
+            self._check_crossings(sol.t_events[terminal], sol.y_events[terminal], unpack)
         if sol.status == -1:
             raise IntegrationError(
                 f"{self.method} failed near t = {reached[0]:.6g} s: {sol.message} Try an implicit "
@@ -371,7 +458,7 @@ class _Run:
         self._store(t_out, y_out, outputs, mode, t0)
         if sol.status == 0:                             # reached t_end: no end state is needed
             return self.t_end, None, None, None
-        times = [te[0] if te.size else np.inf for te in sol.t_events]
+        times = [te[0] if te.size else np.inf for te in sol.t_events[:terminal]]
         event = int(np.argmin(times))
         t_end, y_end = sol.t_events[event][0], sol.y_events[event][0]
         s_end, sd_end = unpack(y_end, t_end)
@@ -387,6 +474,32 @@ class _Run:
         event.terminal = True
         event.direction = -1.0 if on else 1.0
         return event
+
+    def _branch_event(self, unpack):
+        """det Phi_z of the model's partition: it changes sign at a singular configuration of (20)."""
+        zi = self.system.z_index
+
+        def event(t, y):
+            return np.linalg.det(self.system.jacobian(unpack(y, t)[0])[:, zi])
+
+        return event
+
+    def _check_crossings(self, times, states, unpack):
+        """The branch guard (see the module's notes) at each zero of det Phi_z."""
+        for t, y in zip(times, states):
+            f, Phi = self.system.constraints_and_jacobian(unpack(y, t)[0])
+            singular_values = np.linalg.svd(Phi, compute_uv=False)
+            largest, smallest, error = singular_values[0], singular_values[-1], np.linalg.norm(f)
+            kantorovich = math.inf if smallest == 0 else largest * error / smallest**2
+            if kantorovich > BRANCH_LIMIT:
+                raise SingularConfigurationError(
+                    f"the path crossed a singular configuration of Phi_z at t = {t:.6g} s where Phi_s nearly "
+                    f"loses rank (cond(Phi_s) = {largest / smallest:.3g}, |f| = {error:.3g}, Kantorovich "
+                    f"number {kantorovich:.3g} > {BRANCH_LIMIT:g}): the constraint error is as large as the "
+                    "distance between assembly branches, so the run may have changed branch; tighten rtol "
+                    "and atol (at a bifurcation itself no formulation can choose the branch)"
+                )
+            self.partition_singularities.append(float(t))
 
     def _stop_event(self, unpack):
         def event(t, y):
@@ -449,6 +562,74 @@ class _Run:
         side = bool(off > 0)                       # off <= 0: the free motion turns back (h < 0)
         self.switch_events.append(SwitchEvent(t_release, self.names[i], "released"))
         return t_release, s, sd, mode[:i] + (side,) + mode[i + 1:], None
+
+    def integrate_naive(self, t0, s0, sd0):
+        """One integration, the force's branch chosen from the state at each evaluation.
+
+        Steps the OdeSolver by hand so that a run bounded by ``max_nfev`` keeps
+        what it computed.  Returns None when t_end is reached, else the message
+        of the error to raise.
+        """
+        from scipy.integrate._ivp.ivp import METHODS
+
+        system, formulation = self.system, self.formulation
+        unpack = formulation.unpacker(system)
+        unpack.seed(s0)
+        rhs_on = {}
+        changes = np.zeros(len(self.names), dtype=int)
+        last_mode = [None]
+
+        def rhs(t, y):
+            self.nfev += 1
+            mode = ()
+            if self.force is not None:
+                mode = self.force.mode_at(t, *unpack(y, t))
+                if last_mode[0] is not None:
+                    changes[:] += np.array(mode) != np.array(last_mode[0])
+                last_mode[0] = mode
+            if mode not in rhs_on:
+                rhs_on[mode] = formulation.make_rhs(system, mode, unpack)
+            return rhs_on[mode](t, y)
+
+        solver_class = METHODS[self.method] if isinstance(self.method, str) else self.method
+        solver = solver_class(rhs, t0, formulation.pack(system, s0, sd0), self.t_end, rtol=self.rtol,
+                              atol=self.atol, **self.options)
+        if self.t_eval is None:
+            times, states = [t0], [solver.y.copy()]
+        else:
+            first = self.t_eval[self.t_eval <= t0]
+            times, states = list(first), [solver.y.copy()] * first.size
+        message = None
+        while solver.status == "running":
+            if self.max_nfev is not None and self.nfev >= self.max_nfev:
+                busiest = int(np.argmax(changes)) if changes.size else None
+                where = (f"; the force switched {changes[busiest]} times on {self.names[busiest]!r} "
+                         "(chattering)" if busiest is not None and changes[busiest] else "")
+                message = (f"naive switching used up max_nfev = {self.max_nfev} right-hand-side evaluations "
+                           f"at t = {solver.t:.6g} s of {self.t_end:g} s, last step {solver.step_size:.3g} s"
+                           f"{where}; use switching='events'")
+                break
+            solver.step()
+            if solver.status == "failed":
+                message = (f"{self.method} failed at t = {solver.t:.6g} s with naive switching "
+                           f"(step size {solver.step_size:.3g} s); use switching='events'")
+                break
+            if self.t_eval is None:
+                times.append(solver.t)
+                states.append(solver.y.copy())
+            else:                                  # the step's own interpolant, as solve_ivp does
+                inside = self.t_eval[(self.t_eval > solver.t_old) & (self.t_eval <= solver.t)]
+                if inside.size:
+                    times.extend(inside)
+                    states.extend(np.atleast_2d(solver.dense_output()(inside).T))
+        t = np.array(times)
+        y = np.array(states).reshape(t.size, -1).T
+        outputs = formulation.unpacker(system)
+        outputs.seed(s0)
+        pairs = [outputs(y[:, k], t[k]) for k in range(t.size)]
+        self._pieces.append((t, np.array([p[0] for p in pairs]).T, np.array([p[1] for p in pairs]).T,
+                             None, None))
+        return message
 
     def outputs(self):
         t = np.concatenate([p[0] for p in self._pieces])

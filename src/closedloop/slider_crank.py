@@ -16,7 +16,7 @@ findings (see ``shared/paper/NOTES.md`` and the book).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 from functools import lru_cache
 
 import numpy as np
@@ -60,7 +60,8 @@ class SliderCrankParameters:
     Parameters
     ----------
     l1, l2 : float
-        Lengths of crank and connecting rod [m], > 0, with l1 < l2.
+        Lengths of crank and connecting rod [m], > 0, with l1 < l2 unless
+        ``full_rotation`` is False.
     a1, a2 : float
         Centre-of-mass positions OC1 and AC2 [m], >= 0.
     m1, m2, m3 : float
@@ -69,6 +70,13 @@ class SliderCrankParameters:
         Moments of inertia of crank and rod about their centres of mass [kg m^2], > 0.
     g : float
         Gravitational acceleration [m/s^2], >= 0 (the paper does not print it).
+    full_rotation : bool, optional, keyword only
+        True (default): require l1 < l2, the paper's crank that turns full
+        circle.  False: require l2 < l1, a crank that can only rock between
+        the two dead positions ``sin(phi) = +-l2/l1`` where the rod stands
+        perpendicular to the slider's axis and Phi_z of (20) is singular (for
+        the study of singular configurations).  l1 = l2 is refused either way:
+        there Phi_s loses rank at phi = pi/2 and the two assembly branches meet.
     """
 
     l1: float = 2.0
@@ -81,11 +89,16 @@ class SliderCrankParameters:
     I2: float = 35.0
     m3: float = 25.0
     g: float = 9.81
+    full_rotation: bool = field(default=True, kw_only=True)
 
     def __post_init__(self):
         units = {"l1": "m", "l2": "m", "a1": "m", "a2": "m", "m1": "kg", "m2": "kg", "m3": "kg",
                  "I1": "kg m^2", "I2": "kg m^2", "g": "m/s^2"}
+        if not isinstance(self.full_rotation, bool):
+            raise InputError(f"full_rotation: must be True or False, got {self.full_rotation!r}")
         for item in fields(self):
+            if item.name == "full_rotation":
+                continue
             value = getattr(self, item.name)
             if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
                 raise InputError(f"{item.name}: must be a finite number [{units[item.name]}], got {value!r}")
@@ -93,17 +106,25 @@ class SliderCrankParameters:
             if value < 0 or (value == 0 and not allow_zero):
                 bound = ">= 0" if allow_zero else "> 0"
                 raise InputError(f"{item.name}: must be {bound} [{units[item.name]}], got {value!r}")
-        if self.l1 >= self.l2:
+        if self.full_rotation and self.l1 >= self.l2:
             raise InputError(
                 f"l1: must be < l2 = {self.l2:g} m, got {self.l1:g} m: with l1 >= l2 the crank cannot "
-                "turn a full revolution (the rod cannot reach the slider's axis)"
+                "turn a full revolution (the rod cannot reach the slider's axis); pass "
+                "full_rotation=False to study a rocking crank with l2 < l1"
+            )
+        if not self.full_rotation and self.l2 >= self.l1:
+            raise InputError(
+                f"l2: must be < l1 = {self.l1:g} m with full_rotation=False, got {self.l2:g} m (at l2 = l1 "
+                "the two assembly branches meet at phi = pi/2, where Phi_s loses rank: a bifurcation)"
             )
         if self.a2 > self.l2:
             raise InputError(f"a2: must lie on the rod, 0 <= a2 <= l2 = {self.l2:g} m, got {self.a2:g} m")
 
     def as_dict(self):
-        """Values keyed by the model's parameter names."""
-        return asdict(self)
+        """Values keyed by the model's parameter names (without ``full_rotation``)."""
+        values = asdict(self)
+        del values["full_rotation"]
+        return values
 
 
 @dataclass(frozen=True)
@@ -319,6 +340,11 @@ def initial_state(system, phi0, dphi0) -> InitialState:
         if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value)):
             raise InputError(f"phi0, dphi0: {name} must be a finite number, got {value!r}")
     p = system.parameters
+    if abs(p.l1 * math.sin(phi0)) > p.l2:
+        raise InputError(
+            f"phi0: the mechanism does not assemble at phi0 = {phi0:g} rad: with l2 < l1 the crank rocks "
+            f"within |sin phi| <= l2/l1 = {p.l2 / p.l1:g}"
+        )
     psi_guess = math.pi - math.asin(p.l1 * math.sin(phi0) / p.l2)       # exact on this branch
     x_guess = p.l1 * math.cos(phi0) - p.l2 * math.cos(psi_guess)
     return consistent_initial_state(system, [phi0], [dphi0], [psi_guess, x_guess])

@@ -1,0 +1,125 @@
+"""Kinematic singularities: where Phi_z and Phi_s lose rank, what fails there, and the remedy."""
+
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from closedloop import (Augmented, Baumgarte, InitialState, InputError, Minimal, NullSpace, Orthogonal,
+                        SingularConfigurationError, derive, formulation_from_name, null_space_basis, simulate)
+from closedloop.model import condition_number
+from closedloop.slider_crank import SliderCrankParameters, initial_state, slider_crank_model, slider_crank_system
+
+ROCKING = SliderCrankParameters(l2=1.5, a2=0.75, full_rotation=False)      # l2/l1 = 0.75
+
+
+@pytest.fixture(scope="module")
+def rocking():
+    """l2 < l1, no torque, no gas force: a conservative crank that rocks through dead positions."""
+    return slider_crank_system(ROCKING, torque=False, gas=False)
+
+
+def test_det_phi_z_is_minus_l2_cos_psi():
+    """(20) needs Phi_z = d(f1, f2)/d(psi, x_C) invertible: det = -l2 cos psi, zero with the rod upright."""
+    d = derive(slider_crank_model())
+    model = d.model
+    Phi_z = d.jacobian[:, list(model.dependent_index)]
+    l2, psi = sp.Symbol("l2"), sp.Symbol("psi")
+    assert sp.simplify(Phi_z.det() + l2 * sp.cos(psi)) == 0
+
+
+def test_condition_number_closed_form_matches_numpy():
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        A = rng.normal(size=(2, 2)) * 10.0 ** rng.uniform(-3, 3)
+        assert condition_number(A) == pytest.approx(np.linalg.cond(A), rel=1e-8)
+    assert condition_number(np.array([[1.0, 2.0], [2.0, 4.0]])) == math.inf
+
+
+@pytest.mark.parametrize("basis", ["svd", "pivoted"])
+def test_null_space_basis_spans_the_null_space_even_where_phi_z_is_singular(basis):
+    l1, l2 = 2.0, 1.5
+    phi = math.pi - math.asin(l2 / l1)          # dead position: psi = pi/2, cos psi = 0
+    Phi = np.array([[-l1 * math.sin(phi), l2, -1.0], [l1 * math.cos(phi), 0.0, 0.0]])
+    N = null_space_basis(Phi, basis)
+    assert N.shape == (3, 1)
+    assert np.max(np.abs(Phi @ N)) < 1e-14
+    if basis == "svd":
+        assert abs(np.linalg.norm(N) - 1.0) < 1e-14
+    with pytest.raises(SingularConfigurationError, match=r"Phi_s lost rank at t = 1\.5 s: cond\(Phi_s\)"):
+        null_space_basis(np.array([[1.0, 2.0, 3.0], [2.0, 4.0, 6.0]]), basis, t=1.5)
+
+
+def test_the_rocking_crank_is_an_explicit_documented_choice():
+    with pytest.raises(InputError, match=r"^l1: must be < l2 = 1\.5 m.*full_rotation=False"):
+        SliderCrankParameters(l2=1.5, a2=0.75)
+    with pytest.raises(InputError, match=r"^l2: must be < l1 = 2 m with full_rotation=False.*bifurcation"):
+        SliderCrankParameters(l2=2.0, full_rotation=False)
+    with pytest.raises(InputError, match=r"^phi0: the mechanism does not assemble at phi0 = 1\.5"):
+        initial_state(slider_crank_system(ROCKING), 1.5, 0.0)
+    assert "full_rotation" not in ROCKING.as_dict()
+
+
+@pytest.fixture(scope="module")
+def through_dead_positions(rocking):
+    state = initial_state(rocking, math.pi, 1.0)
+    times = np.linspace(0.0, 8.0, 81)
+    options = dict(method="DOP853", t_eval=times)
+    remedy = simulate(rocking, state, 8.0, formulation=NullSpace(), rtol=1e-10, atol=1e-10, **options)
+    reference = simulate(rocking, state, 8.0, formulation=Augmented(), rtol=1e-12, atol=1e-12, **options)
+    return state, remedy, reference
+
+
+def test_null_space_formulation_passes_the_dead_positions(rocking, through_dead_positions):
+    state, remedy, reference = through_dead_positions
+    assert remedy.max_constraint_error < 1e-8
+    assert np.max(np.abs(remedy.s - reference.s)) < 1e-7
+    energy = rocking.energy(remedy.s, remedy.sd)
+    assert np.ptp(energy) < 1e-7 * np.max(np.abs(energy))
+    # it went through them: the rod turned past upright, and phi reached its geometric limit there
+    assert len(remedy.partition_singularities) >= 2
+    assert np.ptp(remedy.coordinate("psi")) > math.pi
+    limit = math.asin(ROCKING.l2 / ROCKING.l1)
+    assert np.max(np.abs(remedy.coordinate("phi") - math.pi)) <= limit + 1e-9
+
+
+def test_minimal_coordinates_fail_with_a_clear_error_at_the_first_dead_position(rocking, through_dead_positions):
+    state, remedy, _ = through_dead_positions
+    first = remedy.partition_singularities[0]
+    with pytest.raises(SingularConfigurationError, match=r"at t = ([0-9.]+) s.*cond\(Phi_z\).*NullSpace") as error:
+        simulate(rocking, state, 8.0, formulation=Minimal(), method="DOP853", rtol=1e-10, atol=1e-10)
+    failed_at = float(error.value.args[0].split("at t = ")[1].split(" s")[0])
+    assert abs(failed_at - first) < 1e-3
+
+
+def test_plain_r_refuses_a_dead_position_that_the_remedy_starts_from(rocking):
+    l1, l2 = ROCKING.l1, ROCKING.l2
+    phi = math.pi - math.asin(l2 / l1)
+    omega = 1.0                                   # the rod turns; the crank is momentarily at rest
+    state = InitialState([phi, math.pi / 2, l1 * math.cos(phi)], [0.0, omega, l2 * omega])
+    with pytest.raises(SingularConfigurationError, match=r"at t = 0 s: cond\(Phi_z\) = .* > 1e\+10.*NullSpace"):
+        simulate(rocking, state, 1.0, formulation=Orthogonal(), method="DOP853")
+    result = simulate(rocking, state, 1.0, formulation=NullSpace(basis="pivoted"), method="DOP853",
+                      rtol=1e-10, atol=1e-10)
+    assert result.max_constraint_error < 1e-8
+    crank = result.coordinate("phi")                     # phi = pi - asin(l2/l1) is the crank's lower limit
+    assert crank.min() >= phi - 1e-9 and crank[-1] > phi + 0.01
+
+
+def test_the_remedy_is_available_by_name():
+    assert formulation_from_name("nullspace", alpha=3.0) == NullSpace(alpha=3.0, beta=5.0)
+    with pytest.raises(InputError, match=r"^basis: unknown 'lu'; choose one of svd, pivoted"):
+        NullSpace(basis="lu")
+
+
+def test_baumgarte_near_the_bifurcation_stops_with_a_clear_error_instead_of_changing_branch():
+    """l2/l1 = 1 + 1e-8: the branches are about 3e-4 rad apart at phi = pi/2."""
+    system = slider_crank_system(SliderCrankParameters(l2=2.0 * (1 + 1e-8), a2=1.0), torque=False, gas=False)
+    state = initial_state(system, math.pi, 3.0)
+    with pytest.raises(SingularConfigurationError, match=r"at t = [0-9.]+ s.*cond\(Phi_s\).*Kantorovich"):
+        simulate(system, state, 3.0, formulation=Baumgarte(5, 5), method="DOP853", rtol=1e-3, atol=1e-3)
+    tight = simulate(system, state, 3.0, formulation=Baumgarte(5, 5), method="DOP853", rtol=1e-9, atol=1e-9)
+    assert np.max(np.cos(tight.coordinate("psi"))) < 0        # stayed on the paper's branch
+    energy = system.energy(tight.s, tight.sd)
+    assert np.ptp(energy) < 1e-4 * np.max(np.abs(energy))
