@@ -12,7 +12,7 @@ import sympy as sp
 
 from .model import MultibodyModel
 
-__all__ = ["four_bar_model"]
+__all__ = ["four_bar_model", "parameter_values"]
 
 
 @lru_cache(maxsize=None)
@@ -40,3 +40,8 @@ def four_bar_model() -> MultibodyModel:
     return MultibodyModel(coordinates=(th1, th2, th3), velocities=(w1, w2, w3), kinetic_energy=T,
                           potential_energy=Pi, constraints=loop, independent=(th1,),
                           parameters=(l0, l1, l2, l3, m1, m2, m3, g))
+
+
+def parameter_values(system):
+    """The parameter values of a :class:`~closedloop.model.System` as a dict keyed by name."""
+    return dict(zip(map(str, system.model.parameters), system.parameter_values.tolist()))

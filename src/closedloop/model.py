@@ -336,13 +336,21 @@ def solve_augmented(M, Phi, p1, p2, t=None):
     return x[:n], x[n:]
 
 
+#: |det| / |A|_F^2 at or below which a 2 x 2 matrix counts as singular (cond(A) >~ 1/this).
+SINGULAR_TOLERANCE = 1e-14
+
+
 def solve_small(A, b):
     """Solve ``A x = b`` for a square A; closed form for 1 x 1 and 2 x 2.
 
     numpy's solver costs a few microseconds of overhead per call, more than the
     arithmetic of a 2 x 2 system: the minimal formulation makes several such
     solves per right-hand-side evaluation.  Raises ``numpy.linalg.LinAlgError``
-    for a singular A, like numpy.
+    for a singular A, like numpy, and also for a 2 x 2 A that is singular to
+    working precision (``|det A|`` at most ``SINGULAR_TOLERANCE`` times the squared
+    Frobenius norm of A, i.e. cond(A) of order 1e14 or more), whose solution is
+    round-off only: at a change point of a linkage, rounding leaves such a
+    determinant of about 1e-16 instead of 0.
     """
     size = A.shape[0]
     if size == 1:
@@ -353,7 +361,7 @@ def solve_small(A, b):
     if size == 2:
         a, c, d, e = A[0, 0], A[0, 1], A[1, 0], A[1, 1]
         det = a * e - c * d
-        if det == 0.0 or not np.isfinite(det):
+        if not np.isfinite(det) or abs(det) <= SINGULAR_TOLERANCE * (a * a + c * c + d * d + e * e):
             raise np.linalg.LinAlgError("Singular matrix")
         return np.array([e * b[0] - c * b[1], a * b[1] - d * b[0]]) / det
     return np.linalg.solve(A, b)

@@ -5,7 +5,8 @@ matplotlib is imported here only, so simulating never pulls it in.
 
 from __future__ import annotations
 
-__all__ = ["plot_slider_crank", "slider_crank_points", "draw_slider_crank", "animate_slider_crank"]
+__all__ = ["plot_slider_crank", "slider_crank_points", "draw_slider_crank", "animate_slider_crank",
+           "four_bar_points", "draw_four_bar", "animate_four_bar"]
 
 
 def plot_slider_crank(result, title=None):
@@ -101,36 +102,119 @@ def animate_slider_crank(result, parameters, frames=30, duration=None, title=Non
     str
         HTML to show with ``IPython.display.HTML``.
     """
+    reach = parameters.l1 + parameters.l2
+
+    def setup(ax, s):
+        ax.set_xlim(-1.1 * parameters.l1, 1.05 * reach)
+        ax.set_ylim(-1.2 * parameters.l1, 1.2 * parameters.l1)
+        ax.axhline(0.0, color="0.7", lw=1, zorder=0)
+        return draw_slider_crank(ax, s, parameters)
+
+    def move(artists, s):
+        points = slider_crank_points(s, parameters)
+        artists[0].set_data(points[:, 0], points[:, 1])
+        artists[1].set_data([points[2, 0]], [0.0])
+
+    return _animate(result, setup, move, (4.8, 2.4), frames, duration, title)
+
+
+def _animate(result, setup, move, size, frames, duration, title):
+    """The shared player: ``frames`` evenly spaced instants of ``result``, as offline HTML.
+
+    ``setup(ax, s)`` draws the mechanism at the first state and returns its
+    artists; ``move(artists, s)`` moves them to the state s.
+    """
     import numpy as np
     from matplotlib.animation import FuncAnimation
     from matplotlib.figure import Figure
 
     times = np.linspace(result.t[0], result.t[-1], frames)
     index = np.minimum(np.searchsorted(result.t, times), result.t.size - 1)
-    reach = parameters.l1 + parameters.l2
-    fig = Figure(figsize=(4.8, 2.4), dpi=64, layout="constrained")
+    fig = Figure(figsize=size, dpi=64, layout="constrained")
     ax = fig.add_subplot()
-    ax.set_xlim(-1.1 * parameters.l1, 1.05 * reach)
-    ax.set_ylim(-1.2 * parameters.l1, 1.2 * parameters.l1)
     ax.set_aspect("equal")
-    ax.axhline(0.0, color="0.7", lw=1, zorder=0)
     ax.set_xticks([])
     ax.set_yticks([])
-    artists = draw_slider_crank(ax, result.s[:, index[0]], parameters)
+    artists = setup(ax, result.s[:, index[0]])
     stamp = ax.text(0.02, 0.88, "", transform=ax.transAxes, fontsize=11)
     if title:
         ax.set_title(title, fontsize=11)
 
     def update(k):
-        points = slider_crank_points(result.s[:, index[k]], parameters)
-        artists[0].set_data(points[:, 0], points[:, 1])
-        artists[1].set_data([points[2, 0]], [0.0])
+        move(artists, result.s[:, index[k]])
         stamp.set_text(f"t = {times[k]:4.1f} s")
         return [*artists, stamp]
 
     seconds = (result.t[-1] - result.t[0]) if duration is None else duration
     animation = FuncAnimation(fig, update, frames=frames, interval=1000.0 * seconds / frames, blit=False)
     return _offline_player(animation.to_jshtml(default_mode="loop"))
+
+
+def four_bar_points(s, lengths):
+    """Joints O, A, B, D of the four-bar of :func:`closedloop.examples.four_bar_model`.
+
+    Parameters
+    ----------
+    s : array_like
+        ``[theta1, theta2, theta3]``.
+    lengths : mapping
+        Values of ``l0, l1, l2, l3`` [m] (more keys are ignored), e.g.
+        :func:`closedloop.examples.parameter_values` of the system.
+
+    Returns
+    -------
+    ndarray, shape (4, 2)
+        O = (0, 0), A = l1 (cos theta1, sin theta1), B = A + l2 (cos theta2, sin theta2), D = (l0, 0).
+    """
+    import numpy as np
+
+    theta1, theta2 = s[0], s[1]
+    a = lengths["l1"] * np.array([np.cos(theta1), np.sin(theta1)])
+    b = a + lengths["l2"] * np.array([np.cos(theta2), np.sin(theta2)])
+    return np.array([[0.0, 0.0], a, b, [lengths["l0"], 0.0]])
+
+
+def draw_four_bar(ax, s, lengths, color="C0", label=None):
+    """Draw the four-bar at state s on ``ax``: crank OA, coupler AB, rocker BD. Returns the artists."""
+    points = four_bar_points(s, lengths)
+    (links,) = ax.plot(points[:, 0], points[:, 1], "-o", color=color, lw=3, ms=6, label=label)
+    (ground,) = ax.plot(points[[0, 3], 0], points[[0, 3], 1], "^", color="0.3", ms=10)
+    return [links, ground]
+
+
+def animate_four_bar(result, lengths, frames=30, duration=None, title=None):
+    """A light HTML/JavaScript animation of a four-bar run, like :func:`animate_slider_crank`.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run of the four-bar (coordinates theta1, theta2, theta3).
+    lengths : mapping
+        Values of ``l0, l1, l2, l3`` [m].
+    frames, duration, title
+        As for :func:`animate_slider_crank`.
+
+    Returns
+    -------
+    str
+        HTML to show with ``IPython.display.HTML``.
+    """
+    l0, l1, l3 = lengths["l0"], lengths["l1"], lengths["l3"]
+    reach = max(l1, l3)
+
+    def setup(ax, s):
+        ax.set_xlim(-1.1 * reach, l0 + 1.1 * reach)
+        ax.set_ylim(-1.15 * reach, 1.15 * reach)
+        ax.axhline(0.0, color="0.85", lw=1, zorder=0)
+        return draw_four_bar(ax, s, lengths)
+
+    def move(artists, s):
+        points = four_bar_points(s, lengths)
+        artists[0].set_data(points[:, 0], points[:, 1])
+
+    width = 4.8
+    height = max(1.6, width * 2.3 * reach / (l0 + 2.2 * reach))
+    return _animate(result, setup, move, (width, height), frames, duration, title)
 
 
 #: matplotlib's player asks for Font Awesome 4 from a CDN; the book's theme ships Font Awesome 6.

@@ -1,0 +1,315 @@
+"""Energy bookkeeping of the slider-crank: the works of the drive torque and of the gas force.
+
+Multiplying (22) by s'^T removes the constraint forces (Phi_s s' = 0, (9)) and leaves
+the power balance ``d(T + Pi)/dt = M(t) phi' + Q_x x_C'``, where ``Q_x = force_sign F``
+is the gas force's generalised force on x_C (see :class:`~closedloop.slider_crank.GasForce`).
+Integrated along a run::
+
+    (T + Pi)(t) - (T + Pi)(0) = W_M(t) + W_F(t)
+
+The gas force is not a potential force: it acts only while x_C' > 0.  On that
+outward branch it depends on x_C alone, so it has a work function there,
+:func:`gas_outward_work`, and ``W_F`` is a sum of its increments over the outward
+pieces of the motion.  No quadrature of a kinked power is needed, and the balance
+checks a simulation to the tolerance of its integrator.
+
+The torque ``M(t) = M_bar + 0.01 sin(Omega t)`` depends on time only through its
+ripple; ``W_M = M_bar (phi - phi_0) + W_ripple``, and ``|W_ripple|`` is at most
+0.01 N m times the angle the crank has travelled.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import cumulative_trapezoid, quad
+
+from .errors import InputError
+from .slider_crank import (DEFAULT_READING, OMEGA, SliderCrankParameters, drive_torque, gas_force,
+                           get_reading, initial_state)
+
+__all__ = [
+    "torque_work_per_turn",
+    "gas_work_per_cycle",
+    "gas_outward_work",
+    "WorkHistory",
+    "non_conservative_work",
+    "energy_balance_error",
+    "Landscape",
+    "crank_landscape",
+    "GAS_STROKE",
+]
+
+#: Where the printed gas law holds: the inner and outer dead centres of Table 1's slider [m].
+GAS_STROKE = (1.5, 5.5)
+
+
+def torque_work_per_turn(reading=DEFAULT_READING):
+    """Work of the drive torque per crank turn, ``2 pi`` times its mean over a ripple period [J].
+
+    ``M(t) = M_bar + 0.01 sin(Omega t)`` depends on time, not on phi, so the
+    work of one turn ``int M dphi`` depends on how the turn is timed.  Its mean
+    part is ``2 pi M_bar``; the ripple adds at most ``2 pi 0.01`` J (its sign
+    depends on the phase).  The mean is computed by quadrature of
+    :func:`~closedloop.slider_crank.drive_torque` over one period ``2 pi/Omega``.
+
+    Parameters
+    ----------
+    reading : str or Reading, optional
+        How the printed numbers are read; default the paper's reproducing reading.
+
+    Returns
+    -------
+    float
+        About 260.4 J in the decimal readings.
+    """
+    reading = get_reading(reading)
+    period = 2.0 * math.pi / OMEGA
+    mean = quad(lambda t: drive_torque(t, reading), 0.0, period)[0] / period
+    return 2.0 * math.pi * mean
+
+
+def gas_work_per_cycle(parameters=None, reading=DEFAULT_READING):
+    """Work the gas force does on the mechanism over one slider cycle, ``oint Q_x dx_C`` [J].
+
+    A cycle is an outward stroke from ``x_C = l2 - l1`` to ``l2 + l1`` (expansion:
+    ``x_C' > 0``, the printed law F(x_C) acts) and an inward stroke back
+    (compression: ``x_C' <= 0``, F = 0).  Only the outward branch contributes::
+
+        oint Q_x dx_C = force_sign * int_{l2-l1}^{l2+l1} F(x, x' > 0) dx
+
+    computed by quadrature (``scipy.integrate.quad``, split at x_C = 5 where the
+    formula changes).  The law is zero outside [1.5, 5.5] m.
+
+    Parameters
+    ----------
+    parameters : SliderCrankParameters, optional
+        Fix the stroke; default Table 1 (exactly the law's range [1.5, 5.5] m).
+    reading : str or Reading, optional
+
+    Returns
+    -------
+    float
+        About -260.4 J in the paper's reading: the gas takes energy out.
+    """
+    parameters = SliderCrankParameters() if parameters is None else parameters
+    if not isinstance(parameters, SliderCrankParameters):
+        raise InputError("parameters: expected a SliderCrankParameters")
+    reading = get_reading(reading)
+    inner, outer = parameters.l2 - parameters.l1, parameters.l2 + parameters.l1
+    low, high = max(inner, GAS_STROKE[0]), min(outer, GAS_STROKE[1])
+    if low >= high:
+        return 0.0
+    breaks = [5.0] if low < 5.0 < high else None
+    work = quad(lambda x: gas_force(x, 1.0, reading), low, high, points=breaks)[0]
+    return reading.force_sign * work
+
+
+def gas_outward_work(x, reading=DEFAULT_READING):
+    """Work of the gas force on the outward branch from x_C = 1.5 m to ``x`` [J], in closed form.
+
+    With ``a, b, c`` = 282.857, 62.857, 110 (scaled by the reading)::
+
+        U(x) = a ln((6 - x)/4.5) + b (x - 1.5)                           1.5 <= x <= 5
+        U(x) = U(5) - c (x - 5) - c cos(2 pi (x - 5.25)) / (2 pi)        5 <= x <= 5.5
+
+    times the reading's ``force_sign``; constant outside [1.5, 5.5], where F = 0.
+    The work the gas does while the slider moves out from x_a to x_b is
+    ``U(x_b) - U(x_a)``; moving in, it does none.
+
+    Parameters
+    ----------
+    x : float or ndarray
+    reading : str or Reading, optional
+    """
+    reading = get_reading(reading)
+    a, b, c = reading.gas_coefficients
+    x = np.clip(np.asarray(x, dtype=float), *GAS_STROKE)
+    inner = np.minimum(x, 5.0)
+    value = a * np.log((6.0 - inner) / 4.5) + b * (inner - 1.5)
+    beyond = np.maximum(x - 5.0, 0.0)
+    value = value - c * beyond - c * (np.cos(2.0 * np.pi * (5.0 + beyond - 5.25))) / (2.0 * np.pi)
+    value = reading.force_sign * value
+    return value if value.ndim else float(value)
+
+
+def _outward_increments(x, rate, step, work_function):
+    """Work increments of a one-sided force between samples of a motion.
+
+    ``x`` and its rate ``rate = dx/du`` are sampled at parameter values u with
+    spacings ``step``.  Where the rate keeps its sign, the increment is the
+    work function's change (rate > 0) or zero.  Where it changes sign, the
+    turning point x* comes from the cubic Hermite interpolant through both
+    samples and their rates.
+    """
+    x0, x1, v0, v1 = x[:-1], x[1:], rate[:-1] * step, rate[1:] * step
+    increments = np.where((rate[:-1] > 0) & (rate[1:] > 0), work_function(x1) - work_function(x0), 0.0)
+    for k in np.flatnonzero((rate[:-1] > 0) != (rate[1:] > 0)):
+        # p(tau) = h00 x0 + h10 v0 + h01 x1 + h11 v1 on [0, 1]; p' is quadratic in tau
+        d = x1[k] - x0[k]
+        coefficients = [3 * (v0[k] + v1[k]) - 6 * d, 6 * d - 4 * v0[k] - 2 * v1[k], v0[k]]
+        roots = np.roots(coefficients) if any(coefficients[:2]) else np.array([0.0])
+        roots = np.real(roots[np.isreal(roots)])
+        roots = roots[(roots >= 0) & (roots <= 1)]
+        tau = roots[np.argmin(np.abs(roots - 0.5))] if roots.size else 0.5
+        x_turn = (x0[k] * (2 * tau**3 - 3 * tau**2 + 1) + v0[k] * (tau**3 - 2 * tau**2 + tau)
+                  + x1[k] * (-2 * tau**3 + 3 * tau**2) + v1[k] * (tau**3 - tau**2))
+        if rate[k] > 0:                       # out, then in: work up to the turning point
+            increments[k] = work_function(x_turn) - work_function(x0[k])
+        else:                                 # in, then out: work from the turning point
+            increments[k] = work_function(x1[k]) - work_function(x_turn)
+    return increments
+
+
+@dataclass(frozen=True)
+class WorkHistory:
+    """Cumulative works of the non-conservative forces along a run, from its first output time.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+    torque : ndarray, shape (N,)
+        W_M(t) = int M(t) phi' dt [J].
+    gas : ndarray, shape (N,)
+        W_F(t) = int Q_x x_C' dt [J], <= 0 in the paper's reading.
+    ripple : ndarray, shape (N,)
+        The part of W_M done by the ripple 0.01 sin(Omega t) [J].
+    """
+
+    t: np.ndarray
+    torque: np.ndarray
+    gas: np.ndarray
+    ripple: np.ndarray
+
+    @property
+    def total(self):
+        """W_M + W_F [J]."""
+        return self.torque + self.gas
+
+
+def _values(system):
+    return dict(zip(map(str, system.model.parameters), system.parameter_values))
+
+
+def non_conservative_work(system, result):
+    """The works of the drive torque and of the gas force along a slider-crank run.
+
+    ``W_M = M_bar (phi - phi_0) + int 0.01 sin(Omega t) phi' dt`` (the ripple part
+    by the trapezoidal rule: it is 4000 times smaller than the mean part), and
+    ``W_F`` exactly from :func:`gas_outward_work` over the outward pieces of the
+    motion (turning points between output times from a cubic Hermite
+    interpolant).  Dense output (``t_eval`` with steps of a few milliseconds)
+    keeps the turning-point error below the integrator's tolerance.
+
+    Parameters
+    ----------
+    system : SliderCrankSystem
+        From :func:`~closedloop.slider_crank.slider_crank_system`; torque or gas
+        switched off give zero works.
+    result : SimulationResult
+        A run of that system.
+
+    Returns
+    -------
+    WorkHistory
+    """
+    reading = getattr(system, "reading", None)
+    if reading is None:
+        raise InputError("system: expected a slider-crank system from slider_crank_system()")
+    values = _values(system)
+    t, phi, phi_dot = result.t, result.coordinate("phi"), result.velocity("phi")
+    ripple_power = values["torque_ripple"] * np.sin(values["omega"] * t) * phi_dot
+    ripple = cumulative_trapezoid(ripple_power, t, initial=0.0)
+    torque = values["torque_mean"] * (phi - phi[0]) + ripple
+    if system.force is None:
+        gas = np.zeros_like(t)
+    else:
+        increments = _outward_increments(result.coordinate("x"), result.velocity("x"), np.diff(t),
+                                         lambda x: gas_outward_work(x, reading))
+        gas = np.concatenate(([0.0], np.cumsum(increments)))
+    return WorkHistory(t=t, torque=torque, gas=gas, ripple=ripple)
+
+
+def energy_balance_error(system, result, work=None):
+    """``(T + Pi)(t) - (T + Pi)(0) - W_M(t) - W_F(t)`` along a run [J]: zero for an exact motion.
+
+    Parameters
+    ----------
+    system, result
+        As for :func:`non_conservative_work`.
+    work : WorkHistory, optional
+        Reuse works already computed.
+    """
+    work = non_conservative_work(system, result) if work is None else work
+    energy = system.energy(result.s, result.sd)
+    return energy - energy[0] - work.total
+
+
+@dataclass(frozen=True)
+class Landscape:
+    """The crank's energy landscape on the paper's assembly branch.
+
+    Attributes
+    ----------
+    phi : ndarray
+        Crank angles [rad], increasing.
+    potential : ndarray
+        Pi(phi) with psi, x_C from (27)-(28) [J].
+    tilted : ndarray
+        V(phi) = Pi(phi) - M_bar phi [J]: the potential of gravity plus the mean torque.
+    gas_loss : ndarray
+        G(phi) = -W_F for a forward rotation from phi[0] to phi [J]: the slider moves
+        out where dx_C/dphi > 0.
+    slope : ndarray
+        dx_C/dphi, the x_C row of R of (20).
+    """
+
+    phi: np.ndarray
+    potential: np.ndarray
+    tilted: np.ndarray
+    gas_loss: np.ndarray
+    slope: np.ndarray
+
+    @property
+    def barrier(self):
+        """B = V + G, the barrier function of a forward rotation [J]."""
+        return self.tilted + self.gas_loss
+
+
+def crank_landscape(system, phi):
+    """Pi, V = Pi - M_bar phi and the forward gas loss G along crank angles ``phi``.
+
+    For a constant torque M_bar, ``T + V`` changes only by the gas work; the
+    paper's torque adds a ripple whose work is at most 0.01 N m times the angle
+    turned (see :func:`non_conservative_work`), so V is the landscape of the mean
+    torque.
+
+    Parameters
+    ----------
+    system : SliderCrankSystem
+    phi : array_like
+        Strictly increasing crank angles [rad].
+
+    Returns
+    -------
+    Landscape
+    """
+    reading = getattr(system, "reading", None)
+    if reading is None:
+        raise InputError("system: expected a slider-crank system from slider_crank_system()")
+    phi = np.asarray(phi, dtype=float)
+    if phi.ndim != 1 or phi.size < 2 or np.any(np.diff(phi) <= 0):
+        raise InputError("phi: must be a strictly increasing 1-d array of at least two angles")
+    states = [initial_state(system, angle, 1.0) for angle in phi]    # s' = R at unit speed
+    s = np.array([state.s for state in states]).T
+    slope = np.array([state.sd[2] for state in states])
+    _, potential = system.kinetic_and_potential_energy(s, np.zeros_like(s))
+    tilted = potential - _values(system)["torque_mean"] * phi
+    if system.force is None:
+        gas_loss = np.zeros_like(phi)
+    else:
+        increments = _outward_increments(s[2], slope, np.diff(phi), lambda x: gas_outward_work(x, reading))
+        gas_loss = -np.concatenate(([0.0], np.cumsum(increments)))
+    return Landscape(phi=phi, potential=potential, tilted=tilted, gas_loss=gas_loss, slope=slope)
