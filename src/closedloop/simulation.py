@@ -34,14 +34,17 @@ from scipy.integrate import OdeSolver, solve_ivp
 from scipy.optimize import brentq
 
 from .errors import InputError, IntegrationError
-from .formulations import Augmented, Baumgarte, Minimal, Orthogonal
+from . import ode_dop853
+from .formulations import Augmented, Baumgarte, ClosedForm, Minimal, Orthogonal
 from .kinematics import InitialState
 
 __all__ = ["simulate", "SimulationResult", "SwitchEvent", "SOLVER_METHODS"]
 
-#: The solve_ivp methods simulate() accepts by name (an OdeSolver subclass is accepted too).
-SOLVER_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
-_FORMULATIONS = (Augmented, Baumgarte, Orthogonal, Minimal)
+#: The methods simulate() accepts by name: solve_ivp's, and "ode.dop853", the compiled DOP853
+#: of scipy.integrate.ode with events added by :mod:`closedloop.ode_dop853`.  An OdeSolver
+#: subclass is accepted too.
+SOLVER_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", ode_dop853.METHOD)
+_FORMULATIONS = (Augmented, Baumgarte, Orthogonal, Minimal, ClosedForm)
 #: Constraint error above which an initial state is refused as inconsistent.
 INITIAL_TOLERANCE = 1e-8
 _MIN_PROGRESS = 1e-12   # a segment shorter than this (s) makes no progress
@@ -131,12 +134,19 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
         if not (np.all(np.isfinite(value)) and np.all(np.asarray(value) > 0)):
             raise InputError(f"{name}: must be finite and > 0, got {value!r}")
     if not isinstance(formulation, _FORMULATIONS):
-        raise InputError(f"formulation: expected Augmented, Baumgarte, Orthogonal or Minimal, got {formulation!r}")
+        raise InputError(
+            f"formulation: expected Augmented, Baumgarte, Orthogonal, Minimal or ClosedForm, got {formulation!r}"
+        )
     if not (method in SOLVER_METHODS or (isinstance(method, type) and issubclass(method, OdeSolver))):
         raise InputError(f"method: unknown {method!r}; choose one of {', '.join(SOLVER_METHODS)}")
     reserved = {"events", "dense_output", "args", "vectorized"} & set(options)
     if reserved:
         raise InputError(f"solver options: {sorted(reserved)} are managed by simulate()")
+    if method == ode_dop853.METHOD:
+        unknown = set(options) - set(ode_dop853.ALLOWED_OPTIONS)
+        if unknown:
+            raise InputError(f"solver options: {sorted(unknown)} are not taken by {method}; it takes "
+                             f"{', '.join(ode_dop853.ALLOWED_OPTIONS)}")
     if not isinstance(initial_state, InitialState):
         raise InputError("initial_state: expected an InitialState (see consistent_initial_state)")
     s0, sd0 = initial_state.s, initial_state.sd
@@ -217,12 +227,7 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
                stop_when)
     run.integrate(t_start, initial_state.s, initial_state.sd, max_segments)
     t, s, sd, modes = run.outputs()
-    f_norm = np.empty(t.size)
-    fd_norm = np.empty(t.size)
-    for k in range(t.size):
-        f, Phi = system.constraints_and_jacobian(s[:, k])
-        f_norm[k] = np.linalg.norm(f)
-        fd_norm[k] = np.linalg.norm(Phi @ sd[:, k])
+    f_norm, fd_norm = system.constraint_errors(s, sd)
     cpu_time = time.process_time() - start
     lam = _multipliers(system, formulation, t, s, sd, modes, run) if multipliers else None
     return SimulationResult(
@@ -330,6 +335,8 @@ class _Run:
 
     def _segment(self, t0, s0, sd0, mode):
         """Integrate on one branch until t_end or the next switch."""
+        if self.method == ode_dop853.METHOD:
+            return self._compiled_segment(t0, s0, sd0, mode)
         system, formulation = self.system, self.formulation
         y0 = formulation.pack(system, s0, sd0)
         unpack = formulation.unpacker(system)
@@ -376,6 +383,53 @@ class _Run:
         t_end, y_end = sol.t_events[event][0], sol.y_events[event][0]
         s_end, sd_end = unpack(y_end, t_end)
         return t_end, s_end, sd_end, event
+
+    def _compiled_segment(self, t0, s0, sd0, mode):
+        """_segment with the compiled DOP853 of scipy.integrate.ode (see closedloop.ode_dop853)."""
+        system, formulation = self.system, self.formulation
+        y0 = formulation.pack(system, s0, sd0)
+        unpack = formulation.unpacker(system)
+        unpack.seed(s0)
+        rhs = formulation.make_rhs(system, mode, unpack)
+        h = self.force.switching_functions if self.names else None
+        stop_when = self.stop_when
+
+        def switching(t, y):
+            if h is None and stop_when is None:
+                return ()
+            s, sd = unpack(y, t)
+            values = list(h(t, s, sd)) if h is not None else []
+            return values + [stop_when(t, s, sd)] if stop_when is not None else values
+
+        directions = [-1.0 if on else 1.0 for on in mode[:len(self.names)]]
+        if stop_when is not None:
+            directions.append(1.0)
+        outputs = None
+        if self.t_eval is not None:
+            outputs = self.t_eval[self._next_output:]
+            outputs = outputs[outputs >= t0]
+        options = dict(self.options)
+        first_step = options.pop("first_step", None) if not self._pieces else None
+        segment = ode_dop853.integrate_segment(
+            rhs, t0, y0, self.t_end, rtol=self.rtol, atol=self.atol, switching=switching,
+            directions=directions, outputs=outputs,
+            first_step=first_step if first_step is not None else getattr(self, "_last_step", 0.0),
+            **options)
+        self.nfev += segment.nfev
+        self._last_step = segment.last_step
+        bad = ~np.all(np.isfinite(segment.y), axis=0)
+        if np.any(bad):
+            raise IntegrationError(
+                f"the state became non-finite at t = {segment.t[np.argmax(bad)]:.6g} s with {self.method}; "
+                "try an implicit method (Radau, BDF) or smaller Baumgarte gains"
+            )
+        outputs_unpack = formulation.unpacker(system)
+        outputs_unpack.seed(s0)
+        self._store(segment.t, segment.y, outputs_unpack, mode, t0)
+        if segment.event is None:
+            return self.t_end, None, None, None
+        s_end, sd_end = unpack(segment.y_stop, segment.t_stop)
+        return segment.t_stop, s_end, sd_end, segment.event
 
     def _event(self, unpack, i, on):
         h = self.force.switching_functions
