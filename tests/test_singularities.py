@@ -113,13 +113,14 @@ def test_the_remedy_is_available_by_name():
         NullSpace(basis="lu")
 
 
-def test_baumgarte_near_the_bifurcation_stops_with_a_clear_error_instead_of_changing_branch():
+@pytest.mark.parametrize("method", ["DOP853"])
+def test_baumgarte_near_the_bifurcation_stops_with_a_clear_error_instead_of_changing_branch(method):
     """l2/l1 = 1 + 1e-8: the branches are about 3e-4 rad apart at phi = pi/2."""
     system = slider_crank_system(SliderCrankParameters(l2=2.0 * (1 + 1e-8), a2=1.0), torque=False, gas=False)
     state = initial_state(system, math.pi, 3.0)
     with pytest.raises(SingularConfigurationError, match=r"at t = [0-9.]+ s.*cond\(Phi_s\).*Kantorovich"):
-        simulate(system, state, 3.0, formulation=Baumgarte(5, 5), method="DOP853", rtol=1e-3, atol=1e-3)
-    tight = simulate(system, state, 3.0, formulation=Baumgarte(5, 5), method="DOP853", rtol=1e-9, atol=1e-9)
+        simulate(system, state, 3.0, formulation=Baumgarte(5, 5), method=method, rtol=1e-3, atol=1e-3)
+    tight = simulate(system, state, 3.0, formulation=Baumgarte(5, 5), method=method, rtol=1e-9, atol=1e-9)
     assert np.max(np.cos(tight.coordinate("psi"))) < 0        # stayed on the paper's branch
     energy = system.energy(tight.s, tight.sd)
     assert np.ptp(energy) < 1e-4 * np.max(np.abs(energy))

@@ -42,6 +42,16 @@ class SwitchedForce:
         """The generalised force, shape (n,), on the smooth branch ``mode``."""
         raise NotImplementedError
 
+    def components(self, t, s, sd, mode) -> list:
+        """The force of :meth:`__call__` as a list of floats, for lists ``s``, ``sd``.
+
+        Used by the generated right-hand side of
+        :class:`closedloop.formulations.ClosedForm`, which works on floats;
+        override it for speed (the default goes through :meth:`__call__` on arrays).
+        """
+        return np.asarray(self(t, np.asarray(s, dtype=float), np.asarray(sd, dtype=float), mode),
+                          dtype=float).tolist()
+
     def mode_at(self, t, s, sd) -> tuple:
         """The branch on which a state lies strictly off every switch surface."""
         return tuple(bool(h > 0) for h in self.switching_functions(t, s, sd))

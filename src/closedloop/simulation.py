@@ -54,15 +54,21 @@ import numpy as np
 from scipy.integrate import OdeSolver, solve_ivp
 from scipy.optimize import brentq
 
+from . import ode_dop853
 from .errors import InputError, IntegrationError, SingularConfigurationError
-from .formulations import Augmented, Baumgarte, Minimal, NullSpace, Orthogonal
+from .formulations import Augmented, Baumgarte, ClosedForm, Minimal, NullSpace, Orthogonal
 from .kinematics import InitialState
 
 __all__ = ["simulate", "SimulationResult", "SwitchEvent", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT"]
 
-#: The solve_ivp methods simulate() accepts by name (an OdeSolver subclass is accepted too).
-SOLVER_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
-_FORMULATIONS = (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace)
+#: The methods simulate() accepts by name: solve_ivp's, and "ode.dop853", the compiled DOP853
+#: of scipy.integrate.ode with events added by :mod:`closedloop.ode_dop853`.  An OdeSolver
+#: subclass is accepted too.
+SOLVER_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", ode_dop853.METHOD)
+_FORMULATIONS = (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, ClosedForm)
+#: Formulations that stop by themselves at det Phi_z = 0 (they divide by it or guard it), the
+#: only ones "ode.dop853" takes: it has no dense output to locate the branch guard's zeros.
+_GUARDED_BY_THEMSELVES = (ClosedForm, Orthogonal, Minimal)
 #: How switched forces are handled: with events and the sticking rule, or naively.
 SWITCHING = ("events", "naive")
 #: Kantorovich number above which a crossing of det Phi_z = 0 is refused (see "Branch guard").
@@ -164,17 +170,33 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
             raise InputError(f"{name}: must be finite and > 0, got {value!r}")
     if not isinstance(formulation, _FORMULATIONS):
         raise InputError(
-            f"formulation: expected Augmented, Baumgarte, Orthogonal, Minimal or NullSpace, got {formulation!r}"
+            "formulation: expected Augmented, Baumgarte, Orthogonal, Minimal, NullSpace or ClosedForm, "
+            f"got {formulation!r}"
         )
     if switching not in SWITCHING:
         raise InputError(f"switching: unknown {switching!r}; choose one of {', '.join(SWITCHING)}")
     if max_nfev is not None and not (isinstance(max_nfev, (int, np.integer)) and max_nfev > 0):
         raise InputError(f"max_nfev: must be a whole number > 0, got {max_nfev!r}")
+    if method == ode_dop853.METHOD:
+        if switching == "naive":
+            raise InputError(f"method: switching='naive' runs on solve_ivp; choose one of "
+                             f"{', '.join(SOLVER_METHODS[:-1])}")
+        if not isinstance(formulation, _GUARDED_BY_THEMSELVES):
+            raise InputError(
+                f"method: {method} has no dense output for the branch guard, so it takes only formulations "
+                "that cannot cross det Phi_z = 0 unnoticed (ClosedForm, Orthogonal, Minimal); use a "
+                f"solve_ivp method with {type(formulation).__name__}"
+            )
     if not (method in SOLVER_METHODS or (isinstance(method, type) and issubclass(method, OdeSolver))):
         raise InputError(f"method: unknown {method!r}; choose one of {', '.join(SOLVER_METHODS)}")
     reserved = {"events", "dense_output", "args", "vectorized"} & set(options)
     if reserved:
         raise InputError(f"solver options: {sorted(reserved)} are managed by simulate()")
+    if method == ode_dop853.METHOD:
+        unknown = set(options) - set(ode_dop853.ALLOWED_OPTIONS)
+        if unknown:
+            raise InputError(f"solver options: {sorted(unknown)} are not taken by {method}; it takes "
+                             f"{', '.join(ode_dop853.ALLOWED_OPTIONS)}")
     if not isinstance(initial_state, InitialState):
         raise InputError("initial_state: expected an InitialState (see consistent_initial_state)")
     s0, sd0 = initial_state.s, initial_state.sd
@@ -281,12 +303,7 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
 def _result(system, formulation, run, start, multipliers, switching):
     """The SimulationResult of a finished (or, for a naive run, capped) run."""
     t, s, sd, modes = run.outputs()
-    f_norm = np.empty(t.size)
-    fd_norm = np.empty(t.size)
-    for k in range(t.size):
-        f, Phi = system.constraints_and_jacobian(s[:, k])
-        f_norm[k] = np.linalg.norm(f)
-        fd_norm[k] = np.linalg.norm(Phi @ sd[:, k])
+    f_norm, fd_norm = system.constraint_errors(s, sd)
     cpu_time = time.process_time() - start
     lam = _multipliers(system, formulation, t, s, sd, modes, run) if multipliers else None
     return SimulationResult(
@@ -400,6 +417,8 @@ class _Run:
 
     def _segment(self, t0, s0, sd0, mode):
         """Integrate on one branch until t_end or the next switch."""
+        if self.method == ode_dop853.METHOD:
+            return self._compiled_segment(t0, s0, sd0, mode)
         system, formulation = self.system, self.formulation
         y0 = formulation.pack(system, s0, sd0)
         unpack = formulation.unpacker(system)
@@ -463,6 +482,60 @@ class _Run:
         t_end, y_end = sol.t_events[event][0], sol.y_events[event][0]
         s_end, sd_end = unpack(y_end, t_end)
         return t_end, s_end, sd_end, event
+
+    def _compiled_segment(self, t0, s0, sd0, mode):
+        """_segment with the compiled DOP853 of scipy.integrate.ode (see closedloop.ode_dop853)."""
+        system, formulation = self.system, self.formulation
+        y0 = formulation.pack(system, s0, sd0)
+        unpack = formulation.unpacker(system)
+        unpack.seed(s0)
+        rhs = formulation.make_rhs(system, mode, unpack)
+        h = self.force.switching_functions if self.names else None
+        stop_when = self.stop_when
+
+        def switching(t, y):
+            if h is None and stop_when is None:
+                return ()
+            s, sd = unpack(y, t)
+            values = list(h(t, s, sd)) if h is not None else []
+            return values + [stop_when(t, s, sd)] if stop_when is not None else values
+
+        directions = [-1.0 if on else 1.0 for on in mode[:len(self.names)]]
+        if stop_when is not None:
+            directions.append(1.0)
+        outputs = None
+        if self.t_eval is not None:
+            outputs = self.t_eval[self._next_output:]
+            outputs = outputs[outputs >= t0]
+        options = dict(self.options)
+        first_step = options.pop("first_step", None) if not self._pieces else None
+        budget = math.inf if self.max_nfev is None else self.max_nfev - self.nfev
+        try:
+            segment = ode_dop853.integrate_segment(
+                rhs, t0, y0, self.t_end, rtol=self.rtol, atol=self.atol, switching=switching,
+                directions=directions, outputs=outputs, max_nfev=budget,
+                first_step=first_step if first_step is not None else getattr(self, "_last_step", 0.0),
+                **options)
+        except ode_dop853.BudgetExceeded as exceeded:
+            raise IntegrationError(
+                f"{self.method} used up max_nfev = {self.max_nfev} right-hand-side evaluations at "
+                f"t = {exceeded.t:.6g} s of {self.t_end:g} s; loosen rtol, or raise max_nfev"
+            ) from None
+        self.nfev += segment.nfev
+        self._last_step = segment.last_step
+        bad = ~np.all(np.isfinite(segment.y), axis=0)
+        if np.any(bad):
+            raise IntegrationError(
+                f"the state became non-finite at t = {segment.t[np.argmax(bad)]:.6g} s with {self.method}; "
+                "try an implicit method (Radau, BDF) or smaller Baumgarte gains"
+            )
+        outputs_unpack = formulation.unpacker(system)
+        outputs_unpack.seed(s0)
+        self._store(segment.t, segment.y, outputs_unpack, mode, t0)
+        if segment.event is None:
+            return self.t_end, None, None, None
+        s_end, sd_end = unpack(segment.y_stop, segment.t_stop)
+        return segment.t_stop, s_end, sd_end, segment.event
 
     def _event(self, unpack, i, on):
         h = self.force.switching_functions

@@ -235,15 +235,19 @@ class GasForce(SwitchedForce):
         return np.array([sd[2], s[2] - 5.0])
 
     def __call__(self, t, s, sd, mode):
+        return np.array(self.components(t, s, sd, mode))
+
+    def components(self, t, s, sd, mode):
+        """The force as ``[0, 0, F]`` of Python floats (see SwitchedForce.components)."""
         moving_out, beyond_five = mode
-        x = s[2]
+        x = float(s[2])
         value = 0.0
         if moving_out and 1.5 <= x <= 5.5:
             if beyond_five:
                 value = -self._c * (1.0 - math.sin(2.0 * math.pi * (x - 5.25)))
             else:
                 value = -self._a / (6.0 - x) + self._b
-        return np.array([0.0, 0.0, self._sign * value])
+        return [0.0, 0.0, self._sign * value]
 
 
 @lru_cache(maxsize=None)

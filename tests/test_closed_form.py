@@ -1,0 +1,69 @@
+"""The closed form of (26) gives the accelerations of the augmented system (12)/(16).
+
+The reference is the library's numeric solve of the augmented matrix (an
+independent route: assembled M, Phi_s, p1 and one linear solve), at random
+states of two mechanisms, on every branch of the gas force.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from closedloop import Augmented, Baumgarte, SingularConfigurationError, simulate
+from closedloop.formulations import ClosedForm, baumgarte_p2
+from closedloop.model import solve_augmented
+from closedloop.slider_crank import initial_state
+
+from .conftest import random_states
+
+GAINS = [(0.0, 0.0), (5.0, 5.0), (2.0, 7.5)]
+
+
+def augmented_accelerations(system, t, s, sd, mode, alpha, beta):
+    M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
+    return solve_augmented(M, Phi, p1, baumgarte_p2(Phi, gamma, f, sd, alpha, beta))[0]
+
+
+@pytest.mark.parametrize("alpha, beta", GAINS)
+@pytest.mark.parametrize("mode", [(False, False), (True, False), (True, True)])
+def test_closed_form_equals_the_augmented_solve_on_the_slider_crank(slider_crank, alpha, beta, mode):
+    formulation = ClosedForm(alpha, beta)
+    for s, sd in random_states(25, seed=11):
+        t = float(np.random.default_rng(int(s[0] * 1e6)).uniform(0, 20))
+        expected = augmented_accelerations(slider_crank, t, s, sd, mode, alpha, beta)
+        got = formulation.accelerations(slider_crank, t, s, sd, mode)
+        assert np.allclose(got, expected, rtol=1e-10, atol=1e-10 * np.max(np.abs(expected)))
+
+
+@pytest.mark.parametrize("alpha, beta", GAINS)
+def test_closed_form_equals_the_augmented_solve_on_the_four_bar(four_bar, alpha, beta):
+    rng = np.random.default_rng(5)
+    for _ in range(25):
+        s = np.array([rng.uniform(0, 2 * math.pi), rng.uniform(0, 2 * math.pi), rng.uniform(0, 2 * math.pi)])
+        sd = rng.normal(size=3)
+        expected = augmented_accelerations(four_bar, 0.0, s, sd, (), alpha, beta)
+        got = ClosedForm(alpha, beta).accelerations(four_bar, 0.0, s, sd)
+        assert np.allclose(got, expected, rtol=1e-9, atol=1e-9 * np.max(np.abs(expected)))
+
+
+def test_a_folded_four_bar_is_a_clear_singular_configuration_error(four_bar):
+    # coupler and rocker parallel (theta2 = theta3 = 0): det Phi_z = l2 l3 sin(theta2 - theta3) = 0 exactly
+    rhs = ClosedForm().make_rhs(four_bar, (), None)
+    with pytest.raises(SingularConfigurationError, match=r"t = 1\.5 s.*det Phi_z = 0"):
+        rhs(1.5, np.array([0.3, 0.0, 0.0, 1.0, 0.0, 0.0]))
+
+
+def test_closed_form_simulation_matches_baumgarte_step_for_step(slider_crank):
+    state = initial_state(slider_crank, math.pi / 2, 1.0)
+    a = simulate(slider_crank, state, 5.0, formulation=ClosedForm(5, 5), method="DOP853", rtol=1e-10, atol=1e-10,
+                 t_eval=np.linspace(0, 5, 11))
+    b = simulate(slider_crank, state, 5.0, formulation=Baumgarte(5, 5), method="DOP853", rtol=1e-10, atol=1e-10,
+                 t_eval=np.linspace(0, 5, 11))
+    assert np.max(np.abs(a.s - b.s)) < 1e-9
+    assert abs(a.nfev - b.nfev) <= 0.02 * b.nfev          # the same ODE: the same steps, up to round-off
+    c = simulate(slider_crank, state, 5.0, formulation=ClosedForm(0, 0), method="DOP853", rtol=1e-10,
+                 atol=1e-10, t_eval=np.linspace(0, 5, 11))
+    d = simulate(slider_crank, state, 5.0, formulation=Augmented(), method="DOP853", rtol=1e-10, atol=1e-10,
+                 t_eval=np.linspace(0, 5, 11))
+    assert np.max(np.abs(c.s - d.s)) < 1e-9
