@@ -220,7 +220,7 @@ def rk4_stability_map(system, s0, sd0, step, alpha_steps, beta_steps, n_steps=10
     -------
     growth : ndarray, shape (len(beta_steps), len(alpha_steps))
         ``|f|`` at the end over ``|f|`` at the start (a diverged run gives its
-        growth when it stopped, at least 1e6).
+        growth when it stopped, above 1e3 growth_limit).
     """
     from .formulations import Baumgarte
 

@@ -283,7 +283,7 @@ class _StepBudget:
             def _step_impl(self):
                 t_before = self.t
                 success, message = super()._step_impl()
-                if success:
+                if success and self.t != t_before:
                     budget.steps.append(abs(self.t - t_before))
                     budget.t = self.t
                     if len(budget.steps) >= budget.max_steps and self.t != self.t_bound:
@@ -425,8 +425,20 @@ class _Run:
                 overflow.append((t, str(error)))
                 return np.full(y.size, np.nan)
 
-        sol = solve_ivp(guarded_rhs, (t0, self.t_end), y0, method=self.budget.solver(self.method),
-                        rtol=self.rtol, atol=self.atol, t_eval=t_eval, events=events or None, **self.options)
+        try:
+            sol = solve_ivp(guarded_rhs, (t0, self.t_end), y0, method=self.budget.solver(self.method),
+                            rtol=self.rtol, atol=self.atol, t_eval=t_eval, events=events or None,
+                            **self.options)
+        except ValueError as error:
+            if "different signs" not in str(error):
+                raise
+            t = t0 if self.budget.t is None or self.budget.t < t0 else self.budget.t
+            raise IntegrationError(
+                f"{self.method_name} could not locate a switch ({', '.join(self.names)}) in the step after "
+                f"t = {t:.6g} s (h = {self.budget.last_step:.3g} s): a switching function changed sign "
+                "between the ends of the step but not along its interpolant, so the step is too long "
+                "for the motion; try tighter tolerances, a max_step, or another formulation"
+            ) from None
         self.nfev += sol.nfev
         if sol.status == -1:
             raise IntegrationError(self._failure_message(sol.message, t0, overflow))
