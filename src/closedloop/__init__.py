@@ -7,9 +7,8 @@ docstrings are the paper's.
 
 from .errors import (ClosedLoopError, ConvergenceError, InputError, IntegrationError,
                      SingularConfigurationError)
-from .formulations import (Augmented, Baumgarte, Minimal, Orthogonal, baumgarte_from_step, baumgarte_p2,
-                           formulation_from_name)
-from .formulations import NullSpace, null_space_basis
+from .formulations import (Augmented, Baumgarte, ClosedForm, Minimal, NullSpace, Orthogonal, baumgarte_from_step,
+                           baumgarte_p2, formulation_from_name, null_space_basis)
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
 from .model import DerivedModel, MultibodyModel, System, derive
@@ -21,6 +20,6 @@ __all__ = [
     "Augmented", "Baumgarte", "Orthogonal", "Minimal", "baumgarte_from_step", "baumgarte_p2", "formulation_from_name",
     "MultibodyModel", "DerivedModel", "derive", "System", "SwitchedForce",
     "InitialState", "consistent_initial_state", "simulate", "SimulationResult",
-    "NullSpace", "null_space_basis",
+    "NullSpace", "null_space_basis", "ClosedForm",
     "ClosedLoopError", "InputError", "ConvergenceError", "SingularConfigurationError", "IntegrationError",
 ]

@@ -280,6 +280,27 @@ class System:
             p1 = p1 + self.force(t, s, sd, mode)
         return M, p1, f, Phi, gamma
 
+    def applied_forces(self, t, s, sd, mode=None):
+        """tau of (5) at one state: the non-conservative generalised forces, shape (n,).
+
+        The model's smooth ``generalized_forces`` plus the switched force on the
+        branch ``mode`` (by default the branch the state lies on).  Their power
+        ``tau . s'`` is the rate of change of T + Pi along an exact motion (the
+        constraint forces do no work while f' = 0).
+        """
+        tau = np.zeros(self.n)
+        if self.model.generalized_forces is not None:
+            function = self.__dict__.get("_applied_force_function")
+            if function is None:           # hashing the model for the cache costs more than a call: look up once
+                function = self._applied_force_function = _generalized_force_function(self.model)
+            tau += np.array(function(float(t), np.asarray(s, dtype=float).tolist(),
+                                     np.asarray(sd, dtype=float).tolist(), self._parameter_list), dtype=float)
+        if self.force is not None:
+            if mode is None:
+                mode = self.force.mode_at(t, s, sd)
+            tau += self.force(t, s, sd, mode)
+        return tau
+
     def constraints(self, s):
         """f(s) of (6)."""
         return self.constraints_and_jacobian(s)[0]
@@ -335,6 +356,13 @@ class System:
         M, p1, f, Phi, gamma = self.dynamics(t, s, sd, mode)
         rhs2 = -gamma if p2 is None else p2
         return solve_augmented(M, Phi, p1, rhs2, t)
+
+
+@lru_cache(maxsize=None)
+def _generalized_force_function(model):
+    """The model's smooth generalised forces tau(t, s, s') as a numeric function (math module)."""
+    args = [model.time, list(model.coordinates), list(model.velocities), list(model.parameters)]
+    return sp.lambdify(args, list(model.generalized_forces), modules="math")
 
 
 def solve_augmented(M, Phi, p1, p2, t=None):

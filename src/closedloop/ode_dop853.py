@@ -66,6 +66,9 @@ class Segment:
     nfev : int
     last_step : float
         The last accepted step size: a good first step for the next segment.
+    steps : list of float
+        Every accepted step size, in order (not counting the steps redone to
+        locate the switch).
     """
 
     t: np.ndarray
@@ -75,6 +78,7 @@ class Segment:
     event: int | None
     nfev: int
     last_step: float
+    steps: list
 
 
 class BudgetExceeded(Exception):
@@ -136,6 +140,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     directions = tuple(float(d) for d in directions)
     start_values = list(switching(t0, y0))
     times, states = [t0], [y0.copy()]
+    steps = []
     state = {"t": t0, "y": y0.copy(), "g": start_values, "hit": None, "step": first_step}
 
     def solout(t, y):
@@ -151,6 +156,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                 state["hit"] = (t, y.copy(), g)
                 return -1
         state["step"] = t - state["t"]
+        steps.append(state["step"])
         state.update(t=t, y=y.copy(), g=g)
         if outputs is None:
             times.append(t)
@@ -186,7 +192,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                 times.append(t_event)
                 states.append(y_event)
             return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_event,
-                           y_event, event, count[0], state["step"])
+                           y_event, event, count[0], state["step"], steps)
         if code < 0:
             raise IntegrationError(
                 f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
@@ -197,7 +203,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
             times.append(target)
             states.append(state["y"].copy())
     return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_end,
-                   state["y"].copy(), None, count[0], state["step"])
+                   state["y"].copy(), None, count[0], state["step"], steps)
 
 
 def _locate(rhs, switching, state, directions, rtol, atol, failure):

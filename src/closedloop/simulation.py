@@ -51,7 +51,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import OdeSolver, solve_ivp
+from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau, solve_ivp
 from scipy.optimize import brentq
 
 from . import ode_dop853
@@ -75,6 +75,10 @@ SWITCHING = ("events", "naive")
 BRANCH_LIMIT = 0.01
 #: Constraint error above which an initial state is refused as inconsistent.
 INITIAL_TOLERANCE = 1e-8
+#: Default bound on the accepted steps of one simulate() call: a run that needs more fails clearly.
+MAX_STEPS = 1_000_000
+_SOLVER_CLASSES = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+_IMPLICIT = ("Radau", "BDF", "LSODA")
 _MIN_PROGRESS = 1e-12   # a segment shorter than this (s) makes no progress
 
 
@@ -123,6 +127,12 @@ class SimulationResult:
     formulation, method : str
     rtol, atol : float
     coordinate_names : tuple of str
+    step_sizes : ndarray, shape (n_steps,)
+        Every accepted step of the integrator [s], in order, over all segments.
+    work : ndarray, shape (N,), or None
+        Only with ``work=True``: the work W(t) [J] done since ``t_start`` by the
+        non-conservative generalised forces tau of (5) (the model's smooth
+        forces and the switched force), integrated with the state.
     """
 
     t: np.ndarray
@@ -143,6 +153,13 @@ class SimulationResult:
     rtol: float = math.nan
     atol: float = math.nan
     coordinate_names: tuple = ()
+    step_sizes: np.ndarray = field(default_factory=lambda: np.empty(0))
+    work: np.ndarray | None = None
+
+    @property
+    def n_steps(self) -> int:
+        """Accepted integration steps, summed over all segments."""
+        return int(self.step_sizes.size)
 
     @property
     def max_constraint_error(self) -> float:
@@ -159,7 +176,7 @@ class SimulationResult:
 
 
 def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, atol, t_eval,
-              sticking_resolution, options, switching="events", max_nfev=None):
+              sticking_resolution, options, switching="events", max_nfev=None, max_steps=MAX_STEPS):
     for name, value in (("t_start", t_start), ("t_end", t_end)):
         if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value)):
             raise InputError(f"{name}: must be a finite number, got {value!r}")
@@ -177,6 +194,8 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
         raise InputError(f"switching: unknown {switching!r}; choose one of {', '.join(SWITCHING)}")
     if max_nfev is not None and not (isinstance(max_nfev, (int, np.integer)) and max_nfev > 0):
         raise InputError(f"max_nfev: must be a whole number > 0, got {max_nfev!r}")
+    if not (isinstance(max_steps, (int, np.integer)) and max_steps >= 1):
+        raise InputError(f"max_steps: must be an integer >= 1, got {max_steps!r}")
     if method == ode_dop853.METHOD:
         if switching == "naive":
             raise InputError(f"method: switching='naive' runs on solve_ivp; choose one of "
@@ -221,7 +240,8 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
 
 def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None, method="RK45",
              rtol=1e-9, atol=1e-9, t_eval=None, multipliers=False, stop_when=None,
-             sticking_resolution=0.01, max_segments=100_000, switching="events", max_nfev=None, **options):
+             sticking_resolution=0.01, max_segments=100_000, switching="events", max_nfev=None,
+             max_steps=MAX_STEPS, work=False, **options):
     """Integrate Lagrange's equations with multipliers from a consistent initial state.
 
     Parameters
@@ -260,6 +280,14 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
         Bound on the right-hand-side evaluations of the whole run; default none.
         A naive run checks it between steps, so it may pass it by one step's
         evaluations.
+    max_steps : int, optional
+        Bound on the accepted integration steps of the whole run (default
+        :data:`MAX_STEPS`).  A run that needs more raises IntegrationError
+        naming the time reached and the step size: typically an explicit
+        method on a stiff problem.
+    work : bool, optional
+        Also integrate the work of the non-conservative forces (the result's
+        ``work``), for the energy balance ``Delta(T + Pi) = W``.
     **options
         Further solve_ivp options (``max_step``, ``first_step``, ...).
 
@@ -272,9 +300,11 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     InputError
         Before any integration, for a parameter outside its range.
     IntegrationError
-        If solve_ivp fails, the state stops being finite, the state chatters
-        on a switch, or the run needs more than ``max_nfev`` evaluations: the
-        message names the time.  With ``switching="naive"`` the error's
+        If the integrator fails (the step size underflows), the run needs more
+        than ``max_steps`` steps or ``max_nfev`` evaluations, the right-hand
+        side overflows, the state stops being finite, or the state chatters on
+        a switch: the message names the time, the quantity that went bad, and
+        what to try instead.  With ``switching="naive"`` the error's
         attribute ``result`` holds the run up to that time.
     SingularConfigurationError
         If the formulation meets a configuration it can not pass (see the
@@ -283,12 +313,12 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     """
     formulation = Baumgarte() if formulation is None else formulation
     t_eval = _validate(system, initial_state, t_start, t_end, formulation, method, rtol, atol,
-                       t_eval, sticking_resolution, options, switching, max_nfev)
+                       t_eval, sticking_resolution, options, switching, max_nfev, max_steps)
     start = time.process_time()
     if stop_when is not None and not callable(stop_when):
         raise InputError("stop_when: expected a callable stop_when(t, s, sd) -> float")
     run = _Run(system, formulation, method, rtol, atol, t_eval, t_end, sticking_resolution, options,
-               stop_when, max_nfev)
+               stop_when, max_nfev, _StepBudget(max_steps), work)
     if switching == "naive":
         message = run.integrate_naive(t_start, initial_state.s, initial_state.sd)
         if message is not None:
@@ -302,7 +332,7 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
 
 def _result(system, formulation, run, start, multipliers, switching):
     """The SimulationResult of a finished (or, for a naive run, capped) run."""
-    t, s, sd, modes = run.outputs()
+    t, s, sd, modes, work_done = run.outputs()
     f_norm, fd_norm = system.constraint_errors(s, sd)
     cpu_time = time.process_time() - start
     lam = _multipliers(system, formulation, t, s, sd, modes, run) if multipliers else None
@@ -313,7 +343,42 @@ def _result(system, formulation, run, start, multipliers, switching):
         partition_singularities=run.partition_singularities, switching=switching, formulation=formulation.name,
         method=run.method if isinstance(run.method, str) else run.method.__name__, rtol=run.rtol, atol=run.atol,
         coordinate_names=tuple(str(c) for c in system.model.coordinates),
+        step_sizes=np.asarray(run.budget.steps, dtype=float), work=work_done,
     )
+
+
+class _StepBudget:
+    """Accepted steps of one simulate() call: their sizes, and the bound max_steps."""
+
+    def __init__(self, max_steps):
+        self.max_steps = max_steps
+        self.steps = []
+        self.t = None             # time of the last accepted step
+        self.exhausted = False
+
+    def solver(self, method):
+        """The solve_ivp method as an OdeSolver subclass that reports every accepted step here."""
+        base = _SOLVER_CLASSES[method] if isinstance(method, str) else method
+        budget = self
+
+        class Counted(base):
+            def _step_impl(self):
+                t_before = self.t
+                success, message = super()._step_impl()
+                if success and self.t != t_before:
+                    budget.steps.append(abs(self.t - t_before))
+                    budget.t = self.t
+                    if len(budget.steps) >= budget.max_steps and self.t != self.t_bound:
+                        budget.exhausted = True
+                        return False, f"max_steps = {budget.max_steps} reached"
+                return success, message
+
+        Counted.__name__ = Counted.__qualname__ = base.__name__
+        return Counted
+
+    @property
+    def last_step(self):
+        return self.steps[-1] if self.steps else math.nan
 
 
 class _BudgetExceeded(Exception):
@@ -324,8 +389,11 @@ class _Run:
     """The segment loop of one simulate() call (no state survives the call)."""
 
     def __init__(self, system, formulation, method, rtol, atol, t_eval, t_end, resolution, options,
-                 stop_when=None, max_nfev=None):
+                 stop_when=None, max_nfev=None, budget=None, work=False):
         self.system, self.formulation, self.method = system, formulation, method
+        self.method_name = method if isinstance(method, str) else method.__name__
+        self.budget = _StepBudget(MAX_STEPS) if budget is None else budget
+        self.track_work, self.work_done = bool(work), 0.0
         self.rtol, self.atol, self.options = rtol, atol, options
         self.t_eval, self.t_end, self.resolution = t_eval, t_end, resolution
         self.force = system.force
@@ -334,7 +402,7 @@ class _Run:
         self.partition_singularities = []
         self.stop_when, self.stopped_at = stop_when, None
         self.switch_events, self.sticking_intervals = [], []
-        self._pieces = []          # (t, s, sd, mode, stuck) per segment
+        self._pieces = []          # (t, s, sd, mode, stuck, work or None) per segment
         self._next_output = 0      # index into t_eval
 
     # -- mode decisions ---------------------------------------------------------
@@ -424,6 +492,8 @@ class _Run:
         unpack = formulation.unpacker(system)
         unpack.seed(s0)
         rhs = formulation.make_rhs(system, mode, unpack)
+        if self.track_work:                         # one more state: W' = tau . s'
+            y0, rhs, unpack = self._with_work(y0, rhs, unpack, mode)
         events = []
         for i in range(len(self.names)):
             events.append(self._event(unpack, i, mode[i]))
@@ -440,38 +510,48 @@ class _Run:
 
         budget = math.inf if self.max_nfev is None else self.max_nfev - self.nfev
         count = [0]
+        overflow = []                               # (t, message) where the right-hand side overflowed
 
-        def timed_rhs(t, y):
+        def guarded_rhs(t, y):
             reached[0] = t
             count[0] += 1
             if count[0] > budget:
                 raise _BudgetExceeded
-            return rhs(t, y)
+            try:
+                return rhs(t, y)
+            except (OverflowError, FloatingPointError) as error:
+                # A trial stage may overflow where a shorter step would not: hand the
+                # solver a non-finite slope, so that it rejects the step, and remember it.
+                overflow.append((t, str(error)))
+                return np.full(y.size, np.nan)
 
         try:
-            sol = solve_ivp(timed_rhs, (t0, self.t_end), y0, method=self.method, rtol=self.rtol,
-                            atol=self.atol, t_eval=t_eval, events=events or None, **self.options)
+            sol = solve_ivp(guarded_rhs, (t0, self.t_end), y0, method=self.budget.solver(self.method),
+                            rtol=self.rtol, atol=self.atol, t_eval=t_eval, events=events or None,
+                            **self.options)
         except _BudgetExceeded:
             raise IntegrationError(
-                f"{self.method} used up max_nfev = {self.max_nfev} right-hand-side evaluations at "
+                f"{self.method_name} used up max_nfev = {self.max_nfev} right-hand-side evaluations at "
                 f"t = {reached[0]:.6g} s of {self.t_end:g} s; loosen rtol, or raise max_nfev"
+            ) from None
+        except ValueError as error:
+            if "different signs" not in str(error):
+                raise
+            t = t0 if self.budget.t is None or self.budget.t < t0 else self.budget.t
+            raise IntegrationError(
+                f"{self.method_name} could not locate a switch ({', '.join(self.names)}) in the step after "
+                f"t = {t:.6g} s (h = {self.budget.last_step:.3g} s): a switching function changed sign "
+                "between the ends of the step but not along its interpolant, so the step is too long "
+                "for the motion; try tighter tolerances, a max_step, or another formulation"
             ) from None
         self.nfev += sol.nfev
         if terminal < len(events):
             self._check_crossings(sol.t_events[terminal], sol.y_events[terminal], unpack)
         if sol.status == -1:
-            raise IntegrationError(
-                f"{self.method} failed near t = {reached[0]:.6g} s: {sol.message} Try an implicit "
-                "method (Radau, BDF), looser tolerances, or smaller Baumgarte gains"
-            )
+            raise IntegrationError(self._failure_message(sol.message, t0, overflow))
         t_out = np.asarray(sol.t, dtype=float)          # solve_ivp gives lists when t_eval is empty
         y_out = np.asarray(sol.y, dtype=float).reshape(y0.size, t_out.size)
-        bad = ~np.all(np.isfinite(y_out), axis=0)
-        if np.any(bad):
-            raise IntegrationError(
-                f"the state became non-finite at t = {t_out[np.argmax(bad)]:.6g} s with {self.method}; "
-                "try an implicit method (Radau, BDF) or smaller Baumgarte gains"
-            )
+        self._check_finite(t_out, y_out)
         outputs = formulation.unpacker(system)          # marches from the start, Newton's guess close by
         outputs.seed(s0)
         self._store(t_out, y_out, outputs, mode, t0)
@@ -480,8 +560,81 @@ class _Run:
         times = [te[0] if te.size else np.inf for te in sol.t_events[:terminal]]
         event = int(np.argmin(times))
         t_end, y_end = sol.t_events[event][0], sol.y_events[event][0]
+        if self.track_work:
+            self.work_done = float(y_end[-1])
         s_end, sd_end = unpack(y_end, t_end)
         return t_end, s_end, sd_end, event
+
+    def _check_finite(self, t_out, y_out):
+        bad = ~np.all(np.isfinite(y_out), axis=0)
+        if np.any(bad):
+            k = int(np.argmax(bad))
+            names = self._state_names(y_out.shape[0])
+            which = [name for name, v in zip(names, y_out[:, k]) if not np.isfinite(v)]
+            raise IntegrationError(
+                f"the state became non-finite at t = {t_out[k]:.6g} s with {self.method_name} "
+                f"({', '.join(which)} = {y_out[names.index(which[0]), k]}); {self._advice()}"
+            )
+
+    def _with_work(self, y0, rhs, unpack, mode):
+        """Append the work W to the state: ``W' = tau(t, s, s') . s'`` on branch ``mode``."""
+        system = self.system
+
+        def rhs_with_work(t, y):
+            x = y[:-1]
+            s, sd = unpack(x, t)
+            power = system.applied_forces(t, s, sd, mode) @ sd
+            return np.append(rhs(t, x), power)
+
+        def unpack_with_work(y, t=None):
+            return unpack(y[:-1], t)
+
+        unpack_with_work.seed = unpack.seed
+        return np.append(y0, self.work_done), rhs_with_work, unpack_with_work
+
+    def _state_names(self, size):
+        names = [str(c) for c in self.system.model.coordinates]
+        if isinstance(self.formulation, Minimal):
+            names = [names[i] for i in self.system.q_index]
+        names = names + [f"d{name}/dt" for name in names]
+        return names + ["W"] * (size - len(names))
+
+    def _advice(self):
+        """What to try instead, for an integration that failed."""
+        tries = []
+        if self.method_name not in _IMPLICIT:
+            tries.append("an implicit method (Radau, BDF or LSODA)")
+        gains = getattr(self.formulation, "alpha", None), getattr(self.formulation, "beta", None)
+        if gains[0] is not None and max(gains) > 20.0:
+            tries.append(f"smaller Baumgarte gains than alpha = {gains[0]:g}, beta = {gains[1]:g} "
+                         "(the paper's range is 1 to 20)")
+        tries.append("looser tolerances than rtol = {:g}, atol = {:g}".format(
+            np.max(self.rtol), np.max(self.atol)))
+        return "try " + ", or ".join(tries)
+
+    def _failure_message(self, message, t0, overflow):
+        """The IntegrationError text for a solve_ivp failure: time, quantity, what to try."""
+        budget = self.budget
+        t = t0 if budget.t is None or budget.t < t0 else budget.t
+        h = budget.last_step
+        if budget.exhausted:
+            text = (f"{self.method_name} reached max_steps = {budget.max_steps} at t = {t:.6g} s of "
+                    f"t_end = {self.t_end:g} s (last step size h = {h:.3g} s, mean "
+                    f"{np.mean(budget.steps[-100:]):.3g} s over the last 100 steps): the problem is stiff "
+                    "for this method, or the run too long")
+            advice = self._advice() + ", or raise max_steps"
+        elif message and "step size is less than spacing" in message:
+            text = (f"{self.method_name} failed at t = {t:.6g} s: the step size underflowed (it must stay "
+                    f"above 10 ulp(t) = {10 * np.spacing(abs(t)):.3g} s; the last accepted step was "
+                    f"h = {h:.3g} s)")
+            advice = self._advice()
+        else:
+            text = f"{self.method_name} failed at t = {t:.6g} s (last step h = {h:.3g} s): {message}"
+            advice = self._advice()
+        if overflow:
+            text += (f"; the right-hand side overflowed ({overflow[-1][1]}) at t = {overflow[-1][0]:.6g} s, "
+                     "the accelerations are beyond the range of floating-point numbers")
+        return f"{text}; {advice}"
 
     def _compiled_segment(self, t0, s0, sd0, mode):
         """_segment with the compiled DOP853 of scipy.integrate.ode (see closedloop.ode_dop853)."""
@@ -490,6 +643,8 @@ class _Run:
         unpack = formulation.unpacker(system)
         unpack.seed(s0)
         rhs = formulation.make_rhs(system, mode, unpack)
+        if self.track_work:                         # one more state: W' = tau . s'
+            y0, rhs, unpack = self._with_work(y0, rhs, unpack, mode)
         h = self.force.switching_functions if self.names else None
         stop_when = self.stop_when
 
@@ -514,6 +669,8 @@ class _Run:
             segment = ode_dop853.integrate_segment(
                 rhs, t0, y0, self.t_end, rtol=self.rtol, atol=self.atol, switching=switching,
                 directions=directions, outputs=outputs, max_nfev=budget,
+                nsteps=options.pop("nsteps", max(1, min(ode_dop853.DEFAULT_NSTEPS,
+                                                        self.budget.max_steps - len(self.budget.steps)))),
                 first_step=first_step if first_step is not None else getattr(self, "_last_step", 0.0),
                 **options)
         except ode_dop853.BudgetExceeded as exceeded:
@@ -523,17 +680,16 @@ class _Run:
             ) from None
         self.nfev += segment.nfev
         self._last_step = segment.last_step
-        bad = ~np.all(np.isfinite(segment.y), axis=0)
-        if np.any(bad):
-            raise IntegrationError(
-                f"the state became non-finite at t = {segment.t[np.argmax(bad)]:.6g} s with {self.method}; "
-                "try an implicit method (Radau, BDF) or smaller Baumgarte gains"
-            )
+        self.budget.steps.extend(segment.steps)
+        self.budget.t = segment.t_stop
+        self._check_finite(segment.t, segment.y)
         outputs_unpack = formulation.unpacker(system)
         outputs_unpack.seed(s0)
         self._store(segment.t, segment.y, outputs_unpack, mode, t0)
         if segment.event is None:
             return self.t_end, None, None, None
+        if self.track_work:
+            self.work_done = float(segment.y_stop[-1])
         s_end, sd_end = unpack(segment.y_stop, segment.t_stop)
         return segment.t_stop, s_end, sd_end, segment.event
 
@@ -589,10 +745,13 @@ class _Run:
             t, y = t[1:], y[:, 1:]           # the first point repeats the last segment's end
         if t.size == 0:
             return
+        work = None
+        if self.track_work:
+            y, work = y[:-1], y[-1]
         pairs = [unpack(y[:, k], t[k]) for k in range(t.size)]
         s = np.array([p[0] for p in pairs]).T
         sd = np.array([p[1] for p in pairs]).T
-        self._pieces.append((t, s, sd, mode, None))
+        self._pieces.append((t, s, sd, mode, None, work))
 
     def _stick(self, t0, s, mode, i):
         """Hold the mechanism at rest on switch i until it is released (the sticking rule)."""
@@ -625,8 +784,9 @@ class _Run:
             times = np.array([t0, t_stop])
         if times.size:
             held = mode[:i] + (False,) + mode[i + 1:]     # the force's free branch, plus the holding force
+            work = np.full(times.size, self.work_done) if self.track_work else None   # at rest: no power
             self._pieces.append((times, np.repeat(s[:, None], times.size, 1),
-                                 np.zeros((system.n, times.size)), held, i))
+                                 np.zeros((system.n, times.size)), held, i, work))
         if t_release is None:
             return self.t_end, s, sd, mode, None
         # The side is read just past the root (at the grid point where the margin is <= 0):
@@ -701,7 +861,7 @@ class _Run:
         outputs.seed(s0)
         pairs = [outputs(y[:, k], t[k]) for k in range(t.size)]
         self._pieces.append((t, np.array([p[0] for p in pairs]).T, np.array([p[1] for p in pairs]).T,
-                             None, None))
+                             None, None, None))
         return message
 
     def outputs(self):
@@ -710,7 +870,8 @@ class _Run:
         sd = np.concatenate([p[2] for p in self._pieces], axis=1)
         modes = [(p[3], p[4]) for p in self._pieces for _ in range(p[0].size)]
         keep = np.concatenate(([True], np.diff(t) > 0))  # drop repeated times at segment joins
-        return t[keep], s[:, keep], sd[:, keep], [m for m, k in zip(modes, keep) if k]
+        work = np.concatenate([p[5] for p in self._pieces])[keep] if self.track_work else None
+        return t[keep], s[:, keep], sd[:, keep], [m for m, k in zip(modes, keep) if k], work
 
 
 def _multipliers(system, formulation, t, s, sd, modes, run):

@@ -1,0 +1,235 @@
+"""A fixed-step classical Runge-Kutta scheme, and its stability with Baumgarte's (15).
+
+For the lesson on stiffness: with a fixed step dt there is no error control to
+hide an instability, so the step at which Baumgarte's feedback (15) makes the
+integration blow up can be mapped, and compared with linear stability theory.
+
+Each component e of the constraint error obeys (15), ``e'' + 2 alpha e' + beta^2 e = 0``,
+a linear ODE with the characteristic roots ``mu = -alpha +/- sqrt(alpha^2 - beta^2)``.
+The classical Runge-Kutta scheme (RK4) multiplies each mode by the stability
+function ``R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24`` per step, ``z = mu dt``, so the
+error is damped by the integration only if ``|R(mu dt)| <= 1`` for both roots.
+The roots scale with the step: ``mu dt`` depends on ``(alpha dt, beta dt)`` alone.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .errors import InputError, IntegrationError
+
+__all__ = [
+    "rk4",
+    "FixedStepResult",
+    "rk4_stability_function",
+    "baumgarte_roots",
+    "rk4_baumgarte_growth",
+    "rk4_baumgarte_stable",
+    "rk4_real_axis_limit",
+    "rk4_stability_map",
+]
+
+
+def rk4_stability_function(z):
+    """``R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24``: one RK4 step of ``y' = mu y`` is ``y -> R(mu dt) y``."""
+    z = np.asarray(z, dtype=complex)
+    return 1.0 + z * (1.0 + z * (0.5 + z * (1.0 / 6.0 + z / 24.0)))
+
+
+def baumgarte_roots(alpha, beta):
+    """The roots ``mu_1,2 = -alpha +/- sqrt(alpha^2 - beta^2)`` of (15)'s characteristic equation.
+
+    Parameters
+    ----------
+    alpha, beta : float or ndarray
+        Gains (or gains times a step: the roots scale with them).
+
+    Returns
+    -------
+    mu1, mu2 : complex ndarray
+    """
+    alpha = np.asarray(alpha, dtype=float)
+    beta = np.asarray(beta, dtype=float)
+    root = np.sqrt((alpha * alpha - beta * beta).astype(complex))
+    return -alpha + root, -alpha - root
+
+
+def rk4_baumgarte_growth(alpha_step, beta_step):
+    """The larger ``|R(mu dt)|`` of the two roots of (15): the error's growth per RK4 step.
+
+    Parameters
+    ----------
+    alpha_step, beta_step : float or ndarray
+        ``alpha dt`` and ``beta dt`` (broadcast together).
+    """
+    mu1, mu2 = baumgarte_roots(alpha_step, beta_step)
+    return np.maximum(np.abs(rk4_stability_function(mu1)), np.abs(rk4_stability_function(mu2)))
+
+
+def rk4_baumgarte_stable(alpha_step, beta_step):
+    """Linear theory: RK4 keeps (15) stable iff ``|R(mu dt)| <= 1`` for both roots.
+
+    A tiny allowance (1e-12) keeps the marginal point ``alpha = beta = 0`` (R = 1) stable.
+    """
+    return rk4_baumgarte_growth(alpha_step, beta_step) <= 1.0 + 1e-12
+
+
+def rk4_real_axis_limit():
+    """The left end of RK4's stability interval on the negative real axis: ``|R(-x)| = 1`` at x = 2.785...
+
+    With ``beta = 0`` the fast root of (15) is ``mu = -2 alpha``, so RK4 is stable
+    for ``alpha dt`` up to half this value.
+    """
+    return brentq(lambda x: abs(rk4_stability_function(-x)) - 1.0, 2.0, 3.0, xtol=1e-14)
+
+
+@dataclass
+class FixedStepResult:
+    """What :func:`rk4` computed.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        The step times, ``t_start + k dt``, up to where the run ended.
+    s, sd : ndarray, shape (n, N)
+    constraint_error : ndarray, shape (N,)
+        ``|f|`` of (32) at each step.
+    step : float
+    diverged_at : float or None
+        The time at which ``|f|`` first exceeded ``divergence`` times its
+        starting value (or the state stopped being finite); the run ends there.
+    """
+
+    t: np.ndarray
+    s: np.ndarray
+    sd: np.ndarray
+    constraint_error: np.ndarray
+    step: float
+    diverged_at: float | None = None
+
+    @property
+    def growth(self) -> float:
+        """``|f|`` at the end over ``|f|`` at the start."""
+        return float(self.constraint_error[-1] / self.constraint_error[0])
+
+
+def rk4(system, formulation, s0, sd0, step, n_steps, t_start=0.0, divergence=1e6):
+    """Integrate with the classical Runge-Kutta scheme at a fixed step ``dt``.
+
+    The state need not be consistent: starting off the constraints is how
+    the decay (or growth) of the error under (15) is observed.
+
+    Parameters
+    ----------
+    system : System
+        Without switched forces (this scheme does not stop at switches).
+    formulation : Augmented, Baumgarte, Orthogonal or Minimal
+    s0, sd0 : array_like, shape (n,)
+    step : float
+        dt > 0 [s].
+    n_steps : int
+        Number of steps, >= 1.
+    t_start : float, optional
+    divergence : float, optional
+        The run stops when ``|f|`` exceeds ``divergence * max(|f(0)|, 1e-12)``.
+
+    Returns
+    -------
+    FixedStepResult
+
+    Raises
+    ------
+    InputError
+        For a system with switched forces, a step <= 0, or n_steps < 1.
+    IntegrationError
+        If the right-hand side overflows before the divergence test catches it.
+    """
+    if system.force is not None and system.force.switch_names:
+        raise InputError("system: rk4 does not stop at switches; use a system without switched forces "
+                         "(e.g. slider_crank_system(gas=False)) or simulate()")
+    if not (isinstance(step, (int, float, np.floating)) and math.isfinite(step) and step > 0):
+        raise InputError(f"step: must be a finite number > 0, got {step!r}")
+    if not (isinstance(n_steps, (int, np.integer)) and n_steps >= 1):
+        raise InputError(f"n_steps: must be an integer >= 1, got {n_steps!r}")
+    s0 = np.asarray(s0, dtype=float)
+    sd0 = np.asarray(sd0, dtype=float)
+    unpack = formulation.unpacker(system)
+    unpack.seed(s0)
+    mode = system.force.mode_at(t_start, s0, sd0) if system.force is not None else ()
+    rhs = formulation.make_rhs(system, mode, unpack)
+    y = formulation.pack(system, s0, sd0)
+    limit = divergence * max(np.linalg.norm(system.constraints(s0)), 1e-12)
+    times, states, errors = [t_start], [(s0, sd0)], [np.linalg.norm(system.constraints(s0))]
+    diverged_at = None
+    t = t_start
+    for k in range(n_steps):
+        try:
+            k1 = rhs(t, y)
+            k2 = rhs(t + 0.5 * step, y + 0.5 * step * k1)
+            k3 = rhs(t + 0.5 * step, y + 0.5 * step * k2)
+            k4 = rhs(t + step, y + step * k3)
+        except (OverflowError, FloatingPointError) as error:
+            raise IntegrationError(f"rk4: the right-hand side overflowed at t = {t:.6g} s ({error}) "
+                                   f"with dt = {step:.3g} s; take a smaller step") from None
+        y = y + (step / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        t = t_start + (k + 1) * step
+        if not np.all(np.isfinite(y)):
+            diverged_at = t
+            break
+        s, sd = unpack(y, t)
+        error = np.linalg.norm(system.constraints(s))
+        times.append(t)
+        states.append((s, sd))
+        errors.append(error)
+        if not error <= limit:
+            diverged_at = t
+            break
+    return FixedStepResult(
+        t=np.array(times), s=np.array([p[0] for p in states]).T, sd=np.array([p[1] for p in states]).T,
+        constraint_error=np.array(errors), step=float(step), diverged_at=diverged_at,
+    )
+
+
+def rk4_stability_map(system, s0, sd0, step, alpha_steps, beta_steps, n_steps=100, growth_limit=1.0):
+    """The observed stability of RK4 with Baumgarte's (16)-(17) on a grid of ``(alpha dt, beta dt)``.
+
+    For each pair the mechanism is integrated for ``n_steps`` steps of size
+    ``step`` from the (inconsistent) state ``(s0, sd0)``, with
+    ``Baumgarte(alpha_dt / step, beta_dt / step)``.  A cell is *unstable* when
+    the constraint error ends larger than ``growth_limit`` times where it began.
+
+    Parameters
+    ----------
+    system : System
+        Without switched forces.
+    s0, sd0 : array_like
+        A state slightly off the constraints (``|f| > 0``).
+    step : float
+        dt [s]: small against the mechanism's own time scale, so that only the
+        error dynamics (15) can make a step too long.
+    alpha_steps, beta_steps : 1-d array_like
+        The grid of ``alpha dt`` and ``beta dt``.
+    n_steps : int, optional
+    growth_limit : float, optional
+
+    Returns
+    -------
+    growth : ndarray, shape (len(beta_steps), len(alpha_steps))
+        ``|f|`` at the end over ``|f|`` at the start (a diverged run gives its
+        growth when it stopped, above 1e3 growth_limit).
+    """
+    from .formulations import Baumgarte
+
+    alpha_steps = np.asarray(alpha_steps, dtype=float)
+    beta_steps = np.asarray(beta_steps, dtype=float)
+    growth = np.empty((beta_steps.size, alpha_steps.size))
+    for i, beta_step in enumerate(beta_steps):
+        for j, alpha_step in enumerate(alpha_steps):
+            formulation = Baumgarte(float(alpha_step / step), float(beta_step / step))
+            run = rk4(system, formulation, s0, sd0, step, n_steps, divergence=1e3 * max(growth_limit, 1.0))
+            growth[i, j] = np.inf if not np.isfinite(run.constraint_error[-1]) else run.growth
+    return growth

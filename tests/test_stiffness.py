@@ -1,0 +1,176 @@
+"""Stiff Baumgarte gains: RK4's stability theory against the integration, step counts, clear errors."""
+
+import math
+
+import numpy as np
+import pytest
+
+from closedloop import (Baumgarte, ClosedLoopError, IntegrationError, InputError, Minimal, SingularConfigurationError,
+                        simulate)
+from closedloop.fixed_step import (baumgarte_roots, rk4, rk4_baumgarte_growth, rk4_baumgarte_stable,
+                                   rk4_real_axis_limit, rk4_stability_function, rk4_stability_map)
+from closedloop.slider_crank import CASES, SliderCrankParameters, initial_state, slider_crank_system
+
+
+@pytest.fixture(scope="module")
+def smooth_slider_crank():
+    """Table 1 with the drive torque but without the switching gas force."""
+    return slider_crank_system(gas=False)
+
+
+def test_rk4_stability_function_is_the_taylor_polynomial_of_exp():
+    z = np.array([0.1, -0.3 + 0.2j, 0.05j])
+    assert np.allclose(rk4_stability_function(z), 1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24)
+    # one RK4 step of y' = mu y from y = 1 is R(mu h): |R - exp| = O(h^5)
+    assert abs(rk4_stability_function(-0.01) - math.exp(-0.01)) < 1e-12
+
+
+def test_rk4_real_axis_limit_is_the_known_2_785():
+    assert rk4_real_axis_limit() == pytest.approx(2.785293563, abs=1e-8)
+    # beta = 0: the fast root of (15) is -2 alpha, so alpha dt is limited to half of it
+    limit = rk4_real_axis_limit() / 2
+    assert rk4_baumgarte_stable(limit - 1e-3, 0.0) and not rk4_baumgarte_stable(limit + 1e-3, 0.0)
+
+
+def test_rk4_imaginary_axis_limit_is_2_sqrt_2():
+    """alpha = 0: mu dt = +/- i beta dt, inside RK4's region up to 2 sqrt(2) (an undamped error survives)."""
+    assert rk4_baumgarte_stable(0.0, 2 * math.sqrt(2) - 1e-6)
+    assert not rk4_baumgarte_stable(0.0, 2 * math.sqrt(2) + 1e-3)
+    # |R(iy)|^2 = 1 - y^6/72 + y^8/576, which is <= 1 exactly for y^2 <= 8
+    assert rk4_baumgarte_growth(0.0, 1.0) == pytest.approx(math.sqrt(1 - 1 / 72 + 1 / 576), abs=1e-12)
+
+
+def test_baumgarte_roots_solve_the_characteristic_equation():
+    alpha, beta = np.array([1.0, 5.0, 3.0]), np.array([2.0, 5.0, 1.0])
+    for mu in baumgarte_roots(alpha, beta):
+        assert np.allclose(mu**2 + 2 * alpha * mu + beta**2, 0)
+
+
+def test_rk4_is_fourth_order_on_the_mechanism(smooth_slider_crank):
+    system = smooth_slider_crank
+    state = initial_state(system, CASES[2].phi0, CASES[2].dphi0)
+    reference = simulate(system, state, 0.5, formulation=Minimal(), method="DOP853", rtol=1e-13, atol=1e-13,
+                         t_eval=[0.5])
+    errors = []
+    for step in (0.05, 0.025):
+        run = rk4(system, Minimal(), state.s, state.sd, step, round(0.5 / step))
+        assert run.t[-1] == pytest.approx(0.5)
+        errors.append(abs(run.s[0, -1] - reference.s[0, -1]))
+    assert 12 < errors[0] / errors[1] < 20          # 2^4 = 16
+
+
+def test_observed_rk4_map_agrees_with_linear_theory(smooth_slider_crank):
+    system = smooth_slider_crank
+    state = initial_state(system, CASES[2].phi0, CASES[2].dphi0)
+    s0, sd0 = state.s + [0.0, 1e-4, 0.0], state.sd + [0.0, 1e-3, 0.0]
+    alpha_steps, beta_steps = np.linspace(0.1, 2.0, 8), np.linspace(0.1, 4.0, 8)
+    growth = rk4_stability_map(system, s0, sd0, 1e-3, alpha_steps, beta_steps, n_steps=40)
+    theory = rk4_baumgarte_stable(alpha_steps[None, :], beta_steps[:, None])
+    observed = growth <= 1.0
+    assert 0.2 < theory.mean() < 0.8                  # the grid straddles the boundary
+    assert (observed == theory).mean() >= 0.9
+
+
+def test_rk4_refuses_switched_forces_and_bad_steps(smooth_slider_crank):
+    state = initial_state(smooth_slider_crank, 1.0, 1.0)
+    with pytest.raises(InputError, match="switches"):
+        rk4(slider_crank_system(), Baumgarte(), state.s, state.sd, 1e-3, 10)
+    with pytest.raises(InputError, match="step"):
+        rk4(smooth_slider_crank, Baumgarte(), state.s, state.sd, -1e-3, 10)
+
+
+def test_step_counts_collapse_for_explicit_methods_not_for_implicit(slider_crank):
+    state = initial_state(slider_crank, CASES[2].phi0, CASES[2].dphi0)
+    steps = {}
+    for method in ("RK45", "Radau"):
+        for gain in (10.0, 1e4):
+            result = simulate(slider_crank, state, 0.2, formulation=Baumgarte(gain, gain), method=method,
+                              rtol=1e-8, atol=1e-8)
+            assert np.sum(result.step_sizes) == pytest.approx(0.2)
+            steps[method, gain] = result.n_steps
+    assert steps["RK45", 1e4] > 20 * steps["RK45", 10.0]
+    assert steps["RK45", 1e4] > 10 * steps["Radau", 1e4]
+    # explicit: the step is bounded by stability, h alpha of order one (DOPRI5's real-axis limit is 3.3)
+    assert 0.2 / steps["RK45", 1e4] * 1e4 < 3.4
+
+
+def test_n_steps_are_the_solver_steps(conservative_slider_crank):
+    state = initial_state(conservative_slider_crank, 1.0, 1.0)
+    result = simulate(conservative_slider_crank, state, 2.0, method="RK45")
+    assert result.t.size == result.n_steps + 1
+    assert np.allclose(np.diff(result.t), result.step_sizes)
+
+
+def test_max_steps_error_names_time_step_and_advice(slider_crank):
+    state = initial_state(slider_crank, CASES[2].phi0, CASES[2].dphi0)
+    with pytest.raises(IntegrationError) as error:
+        simulate(slider_crank, state, 1.0, formulation=Baumgarte(1e5, 1e5), method="RK45", max_steps=300)
+    message = str(error.value)
+    assert "max_steps = 300" in message and "at t = " in message and "h = " in message
+    assert "implicit method" in message and "alpha = 100000" in message
+    t_reached = float(message.split("at t = ")[1].split(" s")[0])
+    assert 0 < t_reached < 0.1                         # 300 steps of a few microseconds
+    with pytest.raises(InputError, match="max_steps"):
+        simulate(slider_crank, state, 1.0, max_steps=0)
+
+
+def test_step_size_underflow_error_names_time_and_step():
+    """A force that blows up like |1 - t|^-1.5: the steps shrink to round-off at t = 1 s."""
+    from closedloop import System, consistent_initial_state
+    from tests.conftest import pendulum_model
+
+    def force(t, s, sd):
+        return np.array([abs(1.0 - t) ** -1.5, 0.0, 0.0])
+
+    system = System(pendulum_model(), {"m": 2.0, "l": 1.5, "g": 9.81}, force=force)
+    state = consistent_initial_state(system, [0.3], [0.0], [0.4, -1.4])
+    with pytest.raises(IntegrationError) as error:
+        simulate(system, state, 2.0, formulation=Baumgarte(), method="RK45")
+    message = str(error.value)
+    assert "step size underflowed" in message and "at t = 1 s" in message and "h = " in message
+    assert "implicit method" in message
+
+
+def test_heavy_slider_on_a_light_crank_makes_minimal_jump_branch_clearly():
+    """m3 = 1e6 kg on 1e-6 kg links: the crank whips through the dead centres, Newton's z jumps."""
+    parameters = SliderCrankParameters(m1=1e-6, I1=2.25e-6, m2=1e-6, I2=1e-6, m3=1e6)
+    system = slider_crank_system(parameters)
+    state = initial_state(system, CASES[2].phi0, CASES[2].dphi0)
+    with pytest.raises(SingularConfigurationError, match=r"at t = 0\.68[0-9]* s: det\(Phi_z\) changed sign.*NullSpace"):
+        simulate(system, state, 2.0, formulation=Minimal(), method="DOP853")
+
+
+def test_overflow_in_the_right_hand_side_is_a_clear_error(pendulum):
+    from closedloop import System, consistent_initial_state
+    from tests.conftest import pendulum_model
+
+    def force(t, s, sd):
+        if t > 0.5:
+            raise OverflowError("math range error")
+        return np.zeros(3)
+
+    system = System(pendulum_model(), {"m": 2.0, "l": 1.5, "g": 9.81}, force=force)
+    state = consistent_initial_state(system, [0.3], [0.0], [0.4, -1.4])
+    with pytest.raises(IntegrationError) as error:
+        simulate(system, state, 1.0, method="RK45")
+    message = str(error.value)
+    assert "overflowed" in message and "at t = 0.5" in message
+
+
+def test_unlocatable_switch_is_a_clear_error():
+    """All bodies at 1e-6 kg: accelerations of 1e7 rad/s^2; the event search fails, clearly."""
+    parameters = SliderCrankParameters(m1=1e-6, I1=2.25e-6, m2=1e-6, I2=1e-6, m3=1e-6)
+    system = slider_crank_system(parameters)
+    state = initial_state(system, CASES[2].phi0, CASES[2].dphi0)
+    with pytest.raises(ClosedLoopError, match=r"(could not locate a switch .* after t = )|"
+                                              r"(at t = [0-9.e-]+ s: det\(Phi_z\) changed sign)"):
+        simulate(system, state, 2.0, formulation=Minimal(), method="RK45", rtol=1e-8, atol=1e-8)
+
+
+def test_step_size_scales_inversely_with_crank_speed(slider_crank):
+    medians = []
+    for speed in (50.0, 200.0):
+        state = initial_state(slider_crank, math.pi, speed)
+        result = simulate(slider_crank, state, 0.2, formulation=Baumgarte(), method="RK45", rtol=1e-8, atol=1e-8)
+        medians.append(np.median(result.step_sizes))
+    assert 2.5 < medians[0] / medians[1] < 6            # 200 / 50 = 4
