@@ -69,6 +69,9 @@ class Segment:
     steps : list of float
         Every accepted step size, in order (not counting the steps redone to
         locate the switch).
+    step_ends : ndarray, shape (m, len(steps) + 1)
+        The state at the start and at every accepted step end, for checks
+        along the path that output times alone would miss.
     """
 
     t: np.ndarray
@@ -79,6 +82,7 @@ class Segment:
     nfev: int
     last_step: float
     steps: list
+    step_ends: np.ndarray
 
 
 class BudgetExceeded(Exception):
@@ -140,7 +144,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     directions = tuple(float(d) for d in directions)
     start_values = list(switching(t0, y0))
     times, states = [t0], [y0.copy()]
-    steps = []
+    steps, ends = [], [y0.copy()]
     state = {"t": t0, "y": y0.copy(), "g": start_values, "hit": None, "step": first_step}
 
     def solout(t, y):
@@ -157,6 +161,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                 return -1
         state["step"] = t - state["t"]
         steps.append(state["step"])
+        ends.append(y.copy())
         state.update(t=t, y=y.copy(), g=g)
         if outputs is None:
             times.append(t)
@@ -192,7 +197,8 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                 times.append(t_event)
                 states.append(y_event)
             return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_event,
-                           y_event, event, count[0], state["step"], steps)
+                           y_event, event, count[0], state["step"], steps,
+                           np.array(ends + [y_event]).T)
         if code < 0:
             raise IntegrationError(
                 f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
@@ -203,7 +209,8 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
             times.append(target)
             states.append(state["y"].copy())
     return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_end,
-                   state["y"].copy(), None, count[0], state["step"], steps)
+                   state["y"].copy(), None, count[0], state["step"], steps,
+                   np.array(ends).T)
 
 
 def _locate(rhs, switching, state, directions, rtol, atol, failure):

@@ -576,6 +576,30 @@ class _Run:
                 f"({', '.join(which)} = {y_out[names.index(which[0]), k]}); {self._advice()}"
             )
 
+    def _check_partition(self, segment, t0):
+        """ode.dop853 has no events for det Phi_z: refuse a path whose step ends straddle a zero.
+
+        R of (20), and so ClosedForm and Orthogonal, does not exist where det Phi_z = 0;
+        a step that jumps across such a point has left the configurations R describes.
+        """
+        system = self.system
+        n, r = system.n, system.r
+        s = segment.step_ends[:n]
+        entries = [np.broadcast_to(np.asarray(v, dtype=float), (s.shape[1],))
+                   for v in system.derived.constraint_arrays(s, system.parameter_values)]
+        Phi = np.array(entries[r:]).reshape(r, n, s.shape[1])
+        det = np.linalg.det(np.moveaxis(Phi[:, system.z_index], 2, 0))
+        flips = np.nonzero(np.sign(det[1:]) * np.sign(det[:-1]) < 0)[0]
+        if flips.size:
+            times = np.concatenate(([t0], t0 + np.cumsum(segment.steps), [segment.t_stop]))
+            k = int(flips[0])
+            raise SingularConfigurationError(
+                f"det Phi_z changed sign between t = {times[k]:.6g} s and t = {times[k + 1]:.6g} s with "
+                f"{self.method_name}: the path crossed a configuration where R of (20) does not exist, "
+                "and this method cannot locate it or apply the branch guard; use a solve_ivp method "
+                "(the branch guard), or the NullSpace formulation"
+            )
+
     def _with_work(self, y0, rhs, unpack, mode):
         """Append the work W to the state: ``W' = tau(t, s, s') . s'`` on branch ``mode``."""
         system = self.system
@@ -683,6 +707,8 @@ class _Run:
         self.budget.steps.extend(segment.steps)
         self.budget.t = segment.t_stop
         self._check_finite(segment.t, segment.y)
+        if not isinstance(formulation, Minimal):            # Minimal guards its branch itself
+            self._check_partition(segment, t0)
         outputs_unpack = formulation.unpacker(system)
         outputs_unpack.seed(s0)
         self._store(segment.t, segment.y, outputs_unpack, mode, t0)
