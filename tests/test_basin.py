@@ -124,9 +124,9 @@ def test_boundary_cells_are_those_with_a_neighbour_of_the_other_outcome():
     outcome = np.array([[0, 0, 0, 0],
                         [0, 0, 1, 1],
                         [0, -1, 1, 1]])
-    expected = np.array([[0, 0, 1, 0],
-                         [0, 1, 1, 0],
-                         [0, 0, 1, 0]], bool)       # -1 (not computed) is no one's neighbour
+    expected = np.array([[0, 0, 1, 1],
+                         [0, 1, 1, 1],
+                         [0, 0, 0, 0]], bool)       # -1 (not computed) is no one's neighbour
     np.testing.assert_array_equal(boundary_cells(outcome), expected)
     agreement = compare_outcomes(np.array([[0, 1], [1, 1]]), np.array([[0, 0], [1, 1]]))
     assert agreement.disagreeing == [(0, 1)] and agreement.on_boundary == [True]
@@ -138,7 +138,7 @@ def test_two_workers_give_the_same_map_as_one():
     one = basin_map(phi0, dphi0, 3.0)
     two = basin_map(phi0, dphi0, 3.0, workers=2)
     np.testing.assert_array_equal(one.outcome, two.outcome)
-    np.testing.assert_array_equal(one.excursion, two.excursion)
+    np.testing.assert_allclose(one.excursion, two.excursion, rtol=1e-12)
     assert two.workers == 2 and one.outcome.shape == (5, 8)
 
 
@@ -177,8 +177,8 @@ def test_command_writes_json_and_png(tmp_path, capsys):
     (["--phi0", "0:1:2.5", "--dphi0", "0:3:5"], "phi0: N must be an integer >= 1, got '2.5'"),
     (["--phi0", "1:0:4", "--dphi0", "0:3:5"], "phi0: STOP must be > START"),
     (["--phi0", "0:7:4", "--dphi0", "0:3:5"], "phi0: the range must lie inside [0, 2pi]"),
-    (["--phi0", "-1:2:4", "--dphi0", "0:3:5"], "phi0: the range must lie inside [0, 2pi]"),
-    (["--phi0", "0:2pi:4", "--dphi0", "-1:3:5"], "dphi0: START must be >= 0"),
+    (["--phi0=-1:2:4", "--dphi0", "0:3:5"], "phi0: the range must lie inside [0, 2pi]"),
+    (["--phi0", "0:2pi:4", "--dphi0=-1:3:5"], "dphi0: START must be >= 0"),
     (["--phi0", "0:x:4", "--dphi0", "0:3:5"], "phi0: expected a number, got 'x'"),
     (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--t-end", "0"], "t_end: must be > 0 s"),
     (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--png", "map.svg"], "png: the figure is written as PNG"),
@@ -190,3 +190,33 @@ def test_basin_bad_input_is_one_line_and_exit_2(args, message, capsys):
     lines = captured.err.splitlines()
     assert captured.out == "" and len(lines) == 1
     assert lines[0].startswith("closedloop: error: ") and message in lines[0]
+
+
+def test_map_figure_marks_the_four_cases_where_they_are():
+    from closedloop.plotting import plot_basin_map
+
+    whole = basin_map(grid_values(0.0, 2 * math.pi, 4), grid_values(0.0, 3.0, 3), 1.0)
+    ax = plot_basin_map(whole).axes[0]
+    marked = {(round(x, 9), round(y, 9)) for line in ax.lines for x, y in zip(*line.get_data())}
+    assert marked == {(round(c.phi0, 9), round(c.dphi0, 9)) for c in CASES.values()}
+    assert sorted(t.get_text() for t in ax.texts) == ["1", "2", "3", "4"]
+    # a map drawn over [0.7 pi, 1.1 pi] x [0.55, 1.55] rad/s holds only cases 1 and 4
+    part = basin_map(grid_values(0.8 * math.pi, 1.2 * math.pi, 2), grid_values(0.8, 1.8, 2), 1.0)
+    assert sorted(t.get_text() for t in plot_basin_map(part).axes[0].texts) == ["1", "4"]
+
+
+def test_progress_bar_only_on_a_terminal(monkeypatch, capsys):
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    terminal = Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert main(["basin", "--phi0", "0:2pi:2", "--dphi0", "0:1:1", "--t-end", "0.5"]) == 0
+    bar = terminal.getvalue()
+    assert bar.startswith("\r[") and "100 %" in bar and bar.endswith("\n")
+    assert "[" + "#" * 40 + "]" in bar
+    assert "\r" not in capsys.readouterr().out                # the bar never goes to stdout

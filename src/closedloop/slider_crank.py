@@ -233,10 +233,10 @@ class GasForce(SwitchedForce):
         """The force at K states at once, each on its own branch ``mode[:, j]`` (same formula as a call)."""
         moving_out, beyond_five = mode
         x = s[2]
-        inner = -self._a / (6.0 - np.minimum(x, 5.0)) + self._b
+        stroke = moving_out & (x >= 1.5) & (x <= 5.5)
+        inner = -self._a / np.where(stroke, 6.0 - x, 1.0) + self._b
         outer = -self._c * (1.0 - np.sin(2.0 * np.pi * (x - 5.25)))
-        value = np.where(beyond_five, outer, inner)
-        value = np.where(moving_out & (x >= 1.5) & (x <= 5.5), value, 0.0)
+        value = np.where(stroke, np.where(beyond_five, outer, inner), 0.0)
         out = np.zeros(s.shape)
         out[2] = self._sign * value
         return out
