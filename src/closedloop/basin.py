@@ -273,12 +273,12 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
     for k in range(1, count + 1):
         T = t_end if k == count else k * h
         _advance(model, cells, T)
+        _check_stuck(model, cells, T)
         if k == count:                               # cells stopped at a switch finish the run
             for _ in range(_MAX_STALLS * 4):
                 if not np.any(~cells.done & (cells.stuck < 0) & (cells.t < T)):
                     break
                 _advance(model, cells, T)
-        _check_stuck(model, cells, T)
         if progress is not None and (k % report == 0 or k == count):
             progress(k / count)
         if np.all(cells.done):                       # every cell turned 2 pi: nothing left to decide
@@ -397,6 +397,13 @@ def _advance(model, cells, T):
         crossed = (mode & (h1 < 0)) | (~mode & (h1 > 0))
     else:
         crossed = np.zeros((0, idx.size), bool)
+    bad = ~(np.isfinite(q1) & np.isfinite(qd1))
+    if np.any(bad):
+        j = idx[np.argmax(bad)]
+        raise IntegrationError(
+            f"the state became non-finite in the step ending at t = {T:.6g} s (start phi0 = "
+            f"{cells.q0[j]:.6g} rad); use a smaller step"
+        )
     hit = np.any(crossed, axis=0)
     calm = ~hit
     # cells that stayed on their branch: accept the step
