@@ -3,6 +3,8 @@
     closedloop simulate (--case N | --phi0 A --dphi0 W) [--t-end T] [--formulation NAME]
                         [--method NAME] [--rtol R] [--atol A] [--alpha a --beta b]
                         [--reading NAME] [--json] [--plot FILE.png]
+    closedloop basin --phi0 START:STOP:N --dphi0 START:STOP:M [--t-end T] [--step H]
+                     [--workers W] [--json FILE] [--png FILE.png]
 
 Bad input is reported as one line on stderr, with exit status 2, before any
 integration starts; a failed integration is one line too, with exit status 1.
@@ -57,7 +59,24 @@ def build_parser():
                      help=f"how to read the paper's data: {', '.join(READINGS)} (default {DEFAULT_READING})")
     sim.add_argument("--json", action="store_true", help="print one JSON object")
     sim.add_argument("--plot", metavar="FILE.png", help="write a paper-style figure")
+    _add_basin_parser(commands)
     return parser
+
+
+def _add_basin_parser(commands):
+    """The ``basin`` subcommand: classify a grid of initial conditions."""
+    basin = commands.add_parser("basin", help="map full rotation / oscillation over a grid of initial conditions")
+    basin.add_argument("--phi0", required=True, metavar="START:STOP:N",
+                       help="N crank angles from START to STOP, STOP left out; inside [0, 2pi]; "
+                            "numbers may end in pi, e.g. 0:2pi:100")
+    basin.add_argument("--dphi0", required=True, metavar="START:STOP:M",
+                       help="M crank speeds [rad/s] from START to STOP, STOP left out; START >= 0")
+    basin.add_argument("--t-end", type=str, default=str(DEFAULT_T_END), help="final time [s] (default 20)")
+    basin.add_argument("--step", type=str, default=None, help="step of the batch integrator [s] (default 0.02)")
+    basin.add_argument("--workers", type=str, default=None,
+                       help="processes (default: one per core for 1000 cells or more, else 1)")
+    basin.add_argument("--json", metavar="FILE", help="write the grid and the outcome of each cell as JSON")
+    basin.add_argument("--png", metavar="FILE.png", help="write the map as a PNG figure")
 
 
 def _number(name, text):
@@ -146,6 +165,113 @@ def run_simulate(args):
     return summary
 
 
+def _angle(name, text):
+    """A number, or a number followed by ``pi`` (``2pi``, ``0.5pi``, ``pi``)."""
+    body = text.strip().lower()
+    if body.endswith("pi"):
+        factor = body[:-2].rstrip("*") or "1"
+        return _number(name, factor) * math.pi
+    return _number(name, text)
+
+
+def parse_range(name, text):
+    """``START:STOP:N`` as (start, stop, N), with a one-line error for anything else."""
+    parts = text.split(":")
+    if len(parts) != 3:
+        raise InputError(f"{name}: expected START:STOP:N, got {text!r}")
+    start, stop = _angle(name, parts[0]), _angle(name, parts[1])
+    try:
+        count = int(parts[2])
+    except ValueError:
+        raise InputError(f"{name}: N must be an integer >= 1, got {parts[2]!r}") from None
+    if count < 1:
+        raise InputError(f"{name}: N must be an integer >= 1, got {count}")
+    if not stop > start:
+        raise InputError(f"{name}: STOP must be > START, got {text!r}")
+    return start, stop, count
+
+
+def run_basin(args, progress=None):
+    """Carry out ``closedloop basin``; returns the BasinMap."""
+    import os
+
+    from .basin import DEFAULT_STEP, basin_map, grid_values
+
+    phi_start, phi_stop, n = parse_range("phi0", args.phi0)
+    if phi_start < 0 or phi_stop > 2 * math.pi * (1 + 1e-12):
+        raise InputError(f"phi0: the range must lie inside [0, 2pi] rad, got {args.phi0!r}")
+    dphi_start, dphi_stop, m = parse_range("dphi0", args.dphi0)
+    if dphi_start < 0:
+        raise InputError(f"dphi0: START must be >= 0 rad/s, got {args.dphi0!r}")
+    if n * m > 1_000_000:
+        raise InputError(f"phi0, dphi0: at most 1 000 000 cells, got {n} x {m}")
+    t_end = _number("t_end", args.t_end)
+    if t_end <= 0:
+        raise InputError(f"t_end: must be > 0 s, got {args.t_end}")
+    step = DEFAULT_STEP if args.step is None else _number("step", args.step)
+    if step <= 0 or step > t_end:
+        raise InputError(f"step: must be > 0 s and <= t_end, got {args.step}")
+    cores = os.cpu_count() or 1
+    if args.workers is None:
+        workers = cores if n * m >= 1000 else 1
+    else:
+        try:
+            workers = int(args.workers)
+        except ValueError:
+            raise InputError(f"workers: must be an integer >= 1, got {args.workers!r}") from None
+        if workers < 1:
+            raise InputError(f"workers: must be an integer >= 1, got {workers}")
+    if args.png is not None and not args.png.lower().endswith(".png"):
+        raise InputError(f"png: the figure is written as PNG; give a file name ending in .png, got {args.png!r}")
+    basin = basin_map(grid_values(phi_start, phi_stop, n), grid_values(dphi_start, dphi_stop, m), t_end,
+                      step=step, workers=workers, progress=progress)
+    if args.json is not None:
+        with open(args.json, "w", encoding="utf-8") as handle:
+            json.dump(basin.as_json(), handle)
+    if args.png is not None:
+        from .plotting import plot_basin_map
+
+        plot_basin_map(basin).savefig(args.png, dpi=120)
+    return basin
+
+
+class _ProgressBar:
+    """A plain text progress bar on stderr: ``[#####.....]  50 %  12 s``."""
+
+    def __init__(self, stream, width=40):
+        import time
+
+        self.stream, self.width, self.clock, self.start = stream, width, time.perf_counter, time.perf_counter()
+
+    def __call__(self, fraction):
+        filled = int(round(self.width * fraction))
+        self.stream.write(f"\r[{'#' * filled}{'.' * (self.width - filled)}] {100 * fraction:3.0f} %"
+                          f" {self.clock() - self.start:5.0f} s")
+        self.stream.flush()
+
+    def close(self):
+        self.stream.write("\n")
+        self.stream.flush()
+
+
+def _format_basin(basin, args):
+    rows, columns = basin.outcome.shape
+    lines = [
+        f"{columns} x {rows} cells: phi0 {basin.phi0[0]:.4g} .. {basin.phi0[-1]:.4g} rad, "
+        f"dphi0 {basin.dphi0[0]:.4g} .. {basin.dphi0[-1]:.4g} rad/s, t = 0 .. {basin.t_end:g} s, "
+        f"reading {basin.reading}",
+        f"full rotation: {100 * basin.fraction_rotating:.1f} % of the cells, oscillation: "
+        f"{100 * (1 - basin.fraction_rotating):.1f} %",
+        f"{basin.wall_time:.1f} s wall, {basin.cpu_time:.1f} s CPU, {basin.workers} worker(s), "
+        f"step {basin.step:g} s",
+    ]
+    if args.json is not None:
+        lines.append(f"grid and outcomes written to {args.json}")
+    if args.png is not None:
+        lines.append(f"figure written to {args.png}")
+    return "\n".join(lines)
+
+
 def _format(summary):
     head = f"case {summary['case']}: " if summary["case"] else ""
     gains = (f" (alpha = {summary['alpha']:g}, beta = {summary['beta']:g})"
@@ -173,11 +299,25 @@ def main(argv=None):
     """Entry point of ``closedloop``; returns the exit status."""
     try:
         args = build_parser().parse_args(argv)
+        if args.command == "basin":
+            return _main_basin(args)
         summary = run_simulate(args)
     except ClosedLoopError as error:
         print(f"closedloop: error: {error}", file=sys.stderr)
         return 2 if isinstance(error, InputError) else 1
     print(json.dumps(summary, indent=2) if args.json else _format(summary))
+    return 0
+
+
+def _main_basin(args):
+    """``closedloop basin``: a progress bar on stderr only when stderr is a terminal."""
+    bar = _ProgressBar(sys.stderr) if sys.stderr.isatty() else None
+    try:
+        basin = run_basin(args, progress=bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    print(_format_basin(basin, args))
     return 0
 
 

@@ -52,6 +52,28 @@ class SwitchedForce:
         return np.asarray(self(t, np.asarray(s, dtype=float), np.asarray(sd, dtype=float), mode),
                           dtype=float).tolist()
 
+    def switching_functions_many(self, t, s, sd) -> np.ndarray:
+        """The h_i at K states, shape (k, K); ``s``, ``sd`` of shape (n, K), t a float or (K,).
+
+        The default evaluates :meth:`switching_functions` state by state;
+        a subclass may override it with an array expression.
+        """
+        times = np.broadcast_to(np.asarray(t, dtype=float), s.shape[1:])
+        columns = [self.switching_functions(times[j], s[:, j], sd[:, j]) for j in range(s.shape[1])]
+        return np.array(columns, dtype=float).reshape(s.shape[1], -1).T
+
+    def many(self, t, s, sd, mode) -> np.ndarray:
+        """The generalised force at K states, shape (n, K), each on its own branch.
+
+        ``mode`` is a boolean array of shape (k, K): column j is the branch of
+        state j.  The default calls the force state by state; a subclass may
+        override it with an array expression.
+        """
+        times = np.broadcast_to(np.asarray(t, dtype=float), s.shape[1:])
+        columns = [self(times[j], s[:, j], sd[:, j], tuple(bool(m) for m in mode[:, j]))
+                   for j in range(s.shape[1])]
+        return np.array(columns, dtype=float).reshape(s.shape[1], s.shape[0]).T
+
     def mode_at(self, t, s, sd) -> tuple:
         """The branch on which a state lies strictly off every switch surface."""
         return tuple(bool(h > 0) for h in self.switching_functions(t, s, sd))

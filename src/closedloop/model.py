@@ -25,7 +25,7 @@ import sympy as sp
 
 from .errors import InputError, SingularConfigurationError, at_time
 
-__all__ = ["MultibodyModel", "DerivedModel", "derive", "System"]
+__all__ = ["MultibodyModel", "DerivedModel", "derive", "System", "array_functions"]
 
 
 @dataclass(frozen=True)
@@ -217,6 +217,39 @@ def derive(model: MultibodyModel) -> DerivedModel:
                         constraint_arrays)
 
 
+@lru_cache(maxsize=None)
+def array_functions(model: MultibodyModel):
+    """The numeric functions of :func:`derive`, generated for numpy arrays.
+
+    The same sympy expressions as ``DerivedModel.dynamics`` and
+    ``DerivedModel.constraint_functions``, lambdified with numpy instead of
+    ``math``, so that one call evaluates many states at once (arrays of
+    shape (K,) in place of each coordinate).  Entries that do not depend on
+    the state come back as plain numbers; :meth:`System.dynamics_many`
+    broadcasts them.  Cached per model.
+
+    Returns
+    -------
+    (dynamics, constraint_functions) : tuple of callables
+        With the signatures of the ``DerivedModel`` attributes of the same names.
+    """
+    d = derive(model)
+    args = [model.time, list(model.coordinates), list(model.velocities), list(model.parameters)]
+    flat = [*d.mass_matrix, *d.p1, *d.constraint_vector, *d.jacobian, *d.jacobian_rate_product]
+    dynamics = sp.lambdify(args, flat, modules="numpy", cse=True)
+    constraint_functions = sp.lambdify(args[1:2] + args[3:], [*d.constraint_vector, *d.jacobian],
+                                       modules="numpy", cse=True)
+    return dynamics, constraint_functions
+
+
+def _stack(values, size):
+    """Entries (numbers or arrays of shape (size,)) as one float array of shape (len(values), size)."""
+    out = np.empty((len(values), size))
+    for k, value in enumerate(values):
+        out[k] = value
+    return out
+
+
 class System:
     """A model bound to parameter values and to non-smooth forces.
 
@@ -300,6 +333,37 @@ class System:
                 mode = self.force.mode_at(t, s, sd)
             tau += self.force(t, s, sd, mode)
         return tau
+
+    def dynamics_many(self, t, s, sd):
+        """``(M, p1, f, Phi_s, Phi_s' s')`` at K states at once, without the switched force.
+
+        Parameters
+        ----------
+        t : float or ndarray, shape (K,)
+        s, sd : ndarray, shape (n, K)
+
+        Returns
+        -------
+        M : ndarray, shape (n, n, K)
+        p1 : ndarray, shape (n, K)
+            The smooth forces only: add ``system.force.many(...)`` for the switched one.
+        f : ndarray, shape (r, K)
+        Phi : ndarray, shape (r, n, K)
+        gamma : ndarray, shape (r, K)
+        """
+        n, r = self.n, self.r
+        size = s.shape[1]
+        dynamics = array_functions(self.model)[0]
+        values = _stack(dynamics(t, list(s), list(sd), self._parameter_list), size)
+        split = np.cumsum([n * n, n, r, r * n])
+        M, p1, f, Phi, gamma = np.split(values, split)
+        return M.reshape(n, n, size), p1, f, Phi.reshape(r, n, size), gamma
+
+    def constraints_and_jacobian_many(self, s):
+        """``(f, Phi_s)`` of (6) and (9) at K configurations: shapes (r, K) and (r, n, K)."""
+        size = s.shape[1]
+        values = _stack(array_functions(self.model)[1](list(s), self._parameter_list), size)
+        return values[: self.r], values[self.r:].reshape(self.r, self.n, size)
 
     def constraints(self, s):
         """f(s) of (6)."""

@@ -42,6 +42,8 @@ __all__ = [
     "drive_torque",
     "initial_state",
     "classify_motion",
+    "MOTIONS",
+    "motion_codes",
     "COORDINATES",
     "ReadingOutcome",
     "reading_outcomes",
@@ -249,6 +251,21 @@ class GasForce(SwitchedForce):
                 value = -self._a / (6.0 - x) + self._b
         return [0.0, 0.0, self._sign * value]
 
+    def switching_functions_many(self, t, s, sd):
+        return np.array([sd[2], s[2] - 5.0])
+
+    def many(self, t, s, sd, mode):
+        """The force at K states at once, each on its own branch ``mode[:, j]`` (same formula as a call)."""
+        moving_out, beyond_five = mode
+        x = s[2]
+        stroke = moving_out & (x >= 1.5) & (x <= 5.5)
+        inner = -self._a / np.where(stroke, 6.0 - x, 1.0) + self._b
+        outer = -self._c * (1.0 - np.sin(2.0 * np.pi * (x - 5.25)))
+        value = np.where(stroke, np.where(beyond_five, outer, inner), 0.0)
+        out = np.zeros(s.shape)
+        out[2] = self._sign * value
+        return out
+
 
 @lru_cache(maxsize=None)
 def slider_crank_model() -> MultibodyModel:
@@ -354,6 +371,28 @@ def initial_state(system, phi0, dphi0) -> InitialState:
     return consistent_initial_state(system, [phi0], [dphi0], [psi_guess, x_guess])
 
 
+#: The two outcomes of a run, indexed by their codes 0 and 1 (see :func:`motion_codes`).
+MOTIONS = ("oscillation", "full rotation")
+
+
+def motion_codes(excursion):
+    """The rule behind :func:`classify_motion`, on the largest excursion ``max |phi(t) - phi0|``.
+
+    Parameters
+    ----------
+    excursion : float or ndarray
+        ``max |phi(t) - phi0|`` over a run [rad], phi unwrapped.
+
+    Returns
+    -------
+    int or ndarray of int
+        1 (``MOTIONS[1]``, "full rotation") where the crank turned at least
+        2 pi away from its start, else 0 (``MOTIONS[0]``, "oscillation").
+    """
+    codes = (np.asarray(excursion, dtype=float) >= 2.0 * math.pi).astype(int)
+    return codes if codes.ndim else int(codes)
+
+
 def classify_motion(result, phi0=None) -> str:
     """``"full rotation"`` if the crank ever turns 2 pi beyond its start, else ``"oscillation"``.
 
@@ -366,7 +405,7 @@ def classify_motion(result, phi0=None) -> str:
     """
     phi = result.coordinate("phi")
     start = phi[0] if phi0 is None else phi0
-    return "full rotation" if np.max(np.abs(phi - start)) >= 2.0 * math.pi else "oscillation"
+    return MOTIONS[motion_codes(np.max(np.abs(phi - start)))]
 
 
 @dataclass(frozen=True)

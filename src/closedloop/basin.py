@@ -1,0 +1,823 @@
+"""The basin map: which initial conditions (phi0, phi0') end in full rotation, which in a swing.
+
+The paper's conclusion (section 5) says that the motion of the slider-crank
+depends on its initial conditions and shows four of them.  This module
+classifies a whole grid of them, fast enough to recompute on a laptop.
+
+The batch integrator
+--------------------
+The mechanism has one degree of freedom, so every cell of the grid is a
+state ``(phi, phi')`` of the minimal-coordinate ODE of :class:`~closedloop.Minimal`
+(coordinate partitioning with R of (20))::
+
+    (R^T M R) phi'' = R^T (p1 - M c),   c = [0; -Phi_z^{-1} Phi_s' s']
+
+All cells are integrated at once, with arrays of shape (K,) in place of each
+number: the dependent coordinates psi, x_C by a vectorised Newton on (27)-(28),
+M, p1, Phi_s and Phi_s' s' from the library's derived model lambdified for numpy
+(:func:`closedloop.model.array_functions`), the gas force from
+:meth:`~closedloop.slider_crank.GasForce.many`.
+
+The method is the classical Runge-Kutta scheme of order 4 with a fixed step,
+on one smooth branch of the switched force at a time, as :func:`closedloop.simulate`
+does with solve_ivp:
+
+- after each step, a cell whose switching function changed sign (x_C' = 0 or
+  x_C = 5) is sent back: the crossing is located on the cubic Hermite
+  interpolant of the switching function over the step, the cell is stepped to
+  the crossing on its old branch, the new branch is chosen by the same rule as
+  simulate() (the rates of the switching function on both sides), and the cell
+  finishes the step on the new branch;
+- a cell whose slider stops with both branches pushing onto x_C' = 0 is held at
+  rest (the sticking rule of :mod:`closedloop.simulation`) until the holding
+  force leaves the range between the branches;
+- a cell is classified by :func:`closedloop.slider_crank.motion_codes`, the rule
+  of :func:`~closedloop.slider_crank.classify_motion`, applied to the largest
+  ``|phi - phi0|`` seen at the step ends and switch points; a cell that has
+  turned 2 pi is finished and leaves the batch.
+
+:func:`reference_outcomes` classifies cells one by one with :func:`closedloop.simulate`
+(Minimal, DOP853, rtol = 1e-10) for the agreement check.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import ConvergenceError, InputError, IntegrationError, SingularConfigurationError
+from .kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE
+from .slider_crank import MOTIONS, initial_state, motion_codes, slider_crank_system
+
+__all__ = ["BasinMap", "basin_map", "integrate_outcomes", "reference_outcomes", "boundary_cells",
+           "compare_outcomes", "Agreement", "DEFAULT_STEP", "grid_values"]
+
+#: Step of the fixed-step scheme [s]; its choice is measured in the book's basin chapter.
+DEFAULT_STEP = 0.02
+#: Finite-difference step of the switching-function rates, as in simulate().
+_RATE_EPS = 1e-7
+#: Switching-function values this small (relative to the state) count as "on the surface" at t = 0.
+_SURFACE = 1e-12
+_MIN_PROGRESS = 1e-12      # a stop at a switch closer than this (s) to the last one makes no progress
+_MAX_STALLS = 50
+
+
+def grid_values(start, stop, count):
+    """``count`` evenly spaced values from ``start`` to ``stop``, ``stop`` left out.
+
+    ``start + k (stop - start) / count`` for k = 0 .. count - 1, so that phi0
+    in [0, 2 pi) does not count the same angle twice, and a grid of 4m cells
+    on [0, 2 pi) holds pi/2 and pi exactly.  A map draws each sample as the
+    cell centred on it.
+    """
+    return start + (stop - start) * np.arange(count) / count
+
+
+def _solve_many(A, b):
+    """Solve ``A[:, :, j] x[:, j] = b[:, j]`` for every j; A of shape (m, m, K), b of shape (m, K)."""
+    m = A.shape[0]
+    if m == 1:
+        det = A[0, 0]
+        bad = det == 0.0
+        x = b / np.where(bad, 1.0, det)
+    elif m == 2:
+        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+        bad = det == 0.0
+        det = np.where(bad, 1.0, det)
+        x = np.array([A[1, 1] * b[0] - A[0, 1] * b[1], A[0, 0] * b[1] - A[1, 0] * b[0]]) / det
+    else:
+        A_stack = np.moveaxis(A, -1, 0)
+        bad = np.linalg.det(A_stack) == 0.0
+        x = np.linalg.solve(np.where(bad[:, None, None], np.eye(m), A_stack), b.T[:, :, None])[:, :, 0].T
+    if np.any(bad):
+        raise SingularConfigurationError(
+            "Phi_z is singular at some cells of the batch: R of (20) does not exist there"
+        )
+    return x
+
+
+class _Model:
+    """The minimal-coordinate ODE of a one-degree-of-freedom System, on arrays of states."""
+
+    def __init__(self, system):
+        if system.f != 1:
+            raise InputError(f"system: the batch integrator needs one degree of freedom, got f = {system.f}")
+        self.system = system
+        self.q = int(system.q_index[0])
+        self.z = system.z_index
+        self.force = system.force
+        self.switches = len(self.force.switch_names) if self.force is not None else 0
+        self.evaluations = 0           # vectorised acceleration evaluations
+        self.cell_evaluations = 0      # the same, counted per cell
+
+    def configuration(self, q, z_guess):
+        """s and Phi_s with s[q] = q and z from Newton on f(q, z) = 0 (6), started at z_guess."""
+        system, zi = self.system, self.z
+        s = np.empty((system.n, q.size))
+        s[self.q] = q
+        s[zi] = z_guess
+        for _ in range(NEWTON_MAX_ITERATIONS):
+            f, Phi = system.constraints_and_jacobian_many(s)
+            scale = 1.0 + np.abs(s).max(axis=0)
+            if np.all(np.abs(f).max(axis=0) <= NEWTON_TOLERANCE * scale):
+                return s, Phi
+            step = _solve_many(Phi[:, zi], f)
+            s[zi] -= step
+            if not np.all(np.isfinite(s)):
+                break
+            if np.all(np.abs(step).max(axis=0) <= NEWTON_TOLERANCE * (1.0 + np.abs(s[zi]).max(axis=0))):
+                return s, system.constraints_and_jacobian_many(s)[1]
+        raise ConvergenceError(
+            f"Newton on f(q, z) = 0 did not converge in {NEWTON_MAX_ITERATIONS} iterations for some "
+            "cells of the batch: the mechanism may not assemble there"
+        )
+
+    def evaluate(self, t, q, qd, z_guess, mode):
+        """The state and its accelerations at K cells, each on its branch ``mode[:, j]``.
+
+        Returns a dict with s, sd, sdd (n, K), qdd (K,), R (n, K) and c (n, K).
+        """
+        s, Phi = self.configuration(q, z_guess)
+        point = self._accelerations(t, s, Phi, qd, mode)
+        point["s"] = s
+        return point
+
+    def _accelerations(self, t, s, Phi, qd, mode):
+        system, zi = self.system, self.z
+        size = s.shape[1]
+        R = np.empty((system.n, size))
+        R[self.q] = 1.0
+        R[zi] = -_solve_many(Phi[:, zi], Phi[:, [self.q]][:, 0])      # (20)
+        sd = R * qd
+        M, p1, _, _, gamma = system.dynamics_many(t, s, sd)
+        if self.force is not None:
+            p1 = p1 + self.force.many(t, s, sd, mode)
+        c = np.zeros((system.n, size))
+        c[zi] = _solve_many(Phi[:, zi], -gamma)                          # from (10)
+        A = np.einsum("ik,ijk,jk->k", R, M, R)                           # R^T M R
+        b = np.einsum("ik,ik->k", R, p1 - np.einsum("ijk,jk->ik", M, c))
+        qdd = b / A
+        self.evaluations += 1
+        self.cell_evaluations += size
+        return {"sd": sd, "sdd": R * qdd + c, "qdd": qdd, "R": R, "c": c}
+
+    def rest_accelerations(self, t, s, mode):
+        """s'' at rest (s' = 0) on branch ``mode``."""
+        Phi = self.system.constraints_and_jacobian_many(s)[1]
+        return self._accelerations(t, s, Phi, np.zeros(s.shape[1]), mode)["sdd"]
+
+    def switching(self, t, s, sd):
+        return self.force.switching_functions_many(t, s, sd)
+
+    def rates(self, t, s, sd, sdd):
+        """dh/dt of every switching function along the motion, as simulate() computes it."""
+        eps = _RATE_EPS
+        return (self.switching(t + eps, s + eps * sd, sd + eps * sdd) - self.switching(t, s, sd)) / eps
+
+    def side_rates(self, t, s, sd, q, qd, z, mode, i):
+        """Rates of switch i on its "off" and "on" branches at the given states (one switch for all)."""
+        size = q.size
+        trial = np.concatenate((mode, mode), axis=1)          # both branches in one evaluation
+        trial[i, :size], trial[i, size:] = False, True
+        t2 = np.concatenate((np.broadcast_to(t, (size,)),) * 2)
+        point = self.evaluate(t2, np.tile(q, 2), np.tile(qd, 2), np.tile(z, 2), trial)
+        rates = self.rates(t2, np.tile(s, 2), point["sd"], point["sdd"])[i]
+        return rates[:size], rates[size:]
+
+
+@dataclass
+class _Cells:
+    """Per-cell state of the batch (arrays of shape (K,) or (k, K))."""
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    z: np.ndarray
+    mode: np.ndarray
+    q0: np.ndarray
+    excursion: np.ndarray
+    stuck: np.ndarray            # index of the switch a cell sticks on, -1 if free
+    stuck_since: np.ndarray
+    margin: np.ndarray           # the sticking margin at the last check
+    done: np.ndarray             # turned a full revolution: finished
+    decided_at: np.ndarray       # when a cell turned 2 pi (nan if it did not)
+    first_stuck: np.ndarray      # when a cell first stuck (nan if it did not)
+    first_release: np.ndarray    # when a stuck cell was first released (nan if it was not)
+    events: np.ndarray           # switch events per cell
+    stalls: np.ndarray = None    # consecutive stops at a switch without progress
+    finish_early: bool = True    # a cell that turned 2 pi leaves the batch
+    cached: np.ndarray = None    # the stored point of a cell is its current state on its branch
+    points: dict = None          # s, sd, sdd, qdd, R, c at each cell's current state
+
+
+@dataclass(frozen=True)
+class BatchOutcome:
+    """What :func:`integrate_outcomes` computed for K cells."""
+
+    codes: np.ndarray            # 0 oscillation, 1 full rotation (MOTIONS)
+    excursion: np.ndarray        # largest |phi - phi0| seen before the cell finished [rad]
+    decided_at: np.ndarray       # time a cell turned 2 pi [s], nan for a swing
+    stuck_at: np.ndarray         # first time a cell's slider stuck [s], nan if never
+    released_at: np.ndarray      # first time a stuck cell was released [s], nan if never
+    final_phi: np.ndarray
+    final_dphi: np.ndarray
+    switch_events: np.ndarray    # located switch crossings and stops per cell
+    evaluations: int             # vectorised evaluations of the accelerations
+    cell_evaluations: int        # the same, summed over the cells evaluated
+    max_constraint_error: float  # largest |f| (32) at the final states
+    step: float
+
+
+def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progress=None, finish_early=True):
+    """Integrate K initial conditions at once and classify each (the batch integrator).
+
+    Parameters
+    ----------
+    system : System
+        A one-degree-of-freedom system, e.g. :func:`~closedloop.slider_crank.slider_crank_system`;
+        its switched force must provide ``switching_functions_many`` and ``many``.
+    phi0, dphi0 : ndarray, shape (K,)
+        Initial crank angles [rad] and speeds [rad/s].
+    t_end : float
+        Final time [s], > 0.
+    step : float
+        Step of the fixed-step Runge-Kutta scheme [s], 0 < step <= t_end.
+    progress : callable, optional
+        ``progress(fraction)`` with a fraction of the time span done, called
+        about a hundred times.
+    finish_early : bool, optional
+        Stop integrating a cell once it has turned 2 pi (its outcome is then
+        settled); False integrates every cell to ``t_end``.
+
+    Returns
+    -------
+    BatchOutcome
+    """
+    phi0 = np.asarray(phi0, dtype=float).ravel()
+    dphi0 = np.asarray(dphi0, dtype=float).ravel()
+    if phi0.shape != dphi0.shape:
+        raise InputError("phi0, dphi0: need one speed per angle")
+    if not (np.all(np.isfinite(phi0)) and np.all(np.isfinite(dphi0))):
+        raise InputError("phi0, dphi0: must be finite numbers")
+    _check_time(t_end, step)
+    model = _Model(system)
+    cells = _initial_cells(system, model, phi0, dphi0)
+    cells.finish_early = finish_early
+    count = max(1, int(math.ceil(t_end / step - 1e-9)))
+    h = t_end / count
+    report = max(1, count // 100)
+    for k in range(1, count + 1):
+        T = t_end if k == count else k * h
+        _advance(model, cells, T)
+        _check_stuck(model, cells, T)
+        if k == count:                               # cells stopped at a switch finish the run
+            for _ in range(_MAX_STALLS * 4):
+                if not np.any(~cells.done & (cells.stuck < 0) & (cells.t < T)):
+                    break
+                _advance(model, cells, T)
+        if progress is not None and (k % report == 0 or k == count):
+            progress(k / count)
+        if np.all(cells.done):                       # every cell turned 2 pi: nothing left to decide
+            if progress is not None and k < count:
+                progress(1.0)
+            break
+    s_final, _ = model.configuration(cells.q, cells.z)
+    f_final = system.constraints_and_jacobian_many(s_final)[0]
+    return BatchOutcome(
+        codes=motion_codes(cells.excursion), excursion=cells.excursion.copy(), decided_at=cells.decided_at,
+        stuck_at=cells.first_stuck, released_at=cells.first_release, final_phi=cells.q.copy(), final_dphi=cells.qd.copy(),
+        switch_events=cells.events, evaluations=model.evaluations, cell_evaluations=model.cell_evaluations,
+        max_constraint_error=float(np.max(np.linalg.norm(f_final, axis=0))), step=h,
+    )
+
+
+def _check_time(t_end, step):
+    for name, value in (("t_end", t_end), ("step", step)):
+        if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value > 0):
+            raise InputError(f"{name}: must be a finite number > 0 s, got {value!r}")
+    if step > t_end:
+        raise InputError(f"step: must be <= t_end = {t_end:g} s, got {step:g} s")
+
+
+def _initial_cells(system, model, phi0, dphi0):
+    """Consistent initial states, the initial branch of each switch, and sticking at t = 0."""
+    size = phi0.size
+    z = np.empty((system.r, size))
+    for j in range(size):                      # the library's branch choice, cell by cell (cheap)
+        z[:, j] = initial_state(system, float(phi0[j]), float(dphi0[j])).s[system.z_index]
+    k = model.switches
+    cells = _Cells(t=np.zeros(size), q=phi0.copy(), qd=dphi0.copy(), z=z, mode=np.zeros((k, size), bool),
+                   q0=phi0.copy(), excursion=np.zeros(size), stuck=np.full(size, -1),
+                   stuck_since=np.full(size, np.nan), margin=np.full(size, np.nan),
+                   done=np.zeros(size, bool), decided_at=np.full(size, np.nan),
+                   first_stuck=np.full(size, np.nan), first_release=np.full(size, np.nan), events=np.zeros(size, int), cached=np.zeros(size, bool),
+                   stalls=np.zeros(size, int))
+    if k == 0:
+        return cells
+    point = model.evaluate(0.0, cells.q, cells.qd, cells.z, cells.mode)
+    s, sd = point["s"], point["sd"]
+    h = model.switching(0.0, s, sd)
+    cells.mode = h > 0
+    scale = 1.0 + np.abs(np.concatenate((s, sd))).max(axis=0)
+    for i in range(k):
+        on_surface = np.flatnonzero((np.abs(h[i]) <= _SURFACE * scale) & (cells.stuck < 0))
+        if on_surface.size:
+            _decide(model, cells, on_surface, i, 0.0, s[:, on_surface], sd[:, on_surface])
+    return cells
+
+
+def _decide(model, cells, idx, i, t, s, sd):
+    """The branch of switch i for cells ``idx`` on its surface: simulate()'s rule, vectorised."""
+    off, on = model.side_rates(t, s, sd, cells.q[idx], cells.qd[idx], cells.z[:, idx], cells.mode[:, idx], i)
+    mode = cells.mode[i, idx].copy()
+    mode[(off > 0) & (on > 0)] = True
+    mode[(off < 0) & (on < 0)] = False
+    sticks = (off > 0) & (0 > on)
+    if np.any(sticks) and not model.force.can_stick[i]:
+        raise IntegrationError(
+            f"at t = {float(np.max(t)):.6g} s the state slides along switch {model.force.switch_names[i]!r}, "
+            "which is not declared able to stick"
+        )
+    cells.mode[i, idx] = mode
+    cells.cached[idx] = False
+    held = idx[sticks]
+    cells.stuck[held] = i
+    cells.stuck_since[held] = np.broadcast_to(t, idx.shape)[sticks]
+    cells.qd[held] = 0.0
+    cells.margin[held] = np.minimum(off, -on)[sticks]
+    first = held[np.isnan(cells.first_stuck[held])]
+    cells.first_stuck[first] = cells.stuck_since[first]
+    cells.events[idx] += 1
+
+
+def _rk4(model, t, dt, q, qd, z, mode, first):
+    """One classical Runge-Kutta step of size dt (per cell) on the branch ``mode``."""
+    R0z = first["R"][model.z]
+
+    def stage(tt, qq, vv):
+        return model.evaluate(tt, qq, vv, z + R0z * (qq - q), mode)["qdd"]
+
+    a1, v1 = first["qdd"], qd
+    v2 = qd + 0.5 * dt * a1
+    a2 = stage(t + 0.5 * dt, q + 0.5 * dt * v1, v2)
+    v3 = qd + 0.5 * dt * a2
+    a3 = stage(t + 0.5 * dt, q + 0.5 * dt * v2, v3)
+    v4 = qd + dt * a3
+    a4 = stage(t + dt, q + dt * v3, v4)
+    q_new = q + dt / 6.0 * (v1 + 2.0 * v2 + 2.0 * v3 + v4)
+    qd_new = qd + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+    end = model.evaluate(t + dt, q_new, qd_new, z + R0z * (q_new - q), mode)
+    return q_new, qd_new, end
+
+
+def _take(point, idx):
+    return {key: value[..., idx] for key, value in point.items()}
+
+
+def _advance(model, cells, T):
+    """One step of every free, unfinished cell to time T; a cell that crosses a switch stops there.
+
+    A stopped cell chooses its new branch and waits at the switch: the next
+    step takes it from there to the next grid time.
+    """
+    idx = np.flatnonzero(~cells.done & (cells.stuck < 0) & (cells.t < T))
+    if idx.size == 0:
+        return
+    t0, q0, qd0, z0, mode = cells.t[idx], cells.q[idx], cells.qd[idx], cells.z[:, idx], cells.mode[:, idx]
+    first = _first_points(model, cells, idx)
+    dt = T - t0
+    q1, qd1, end = _rk4(model, t0, dt, q0, qd0, z0, mode, first)
+    if model.switches:
+        h0 = model.switching(t0, first["s"], first["sd"])
+        h1 = model.switching(T, end["s"], end["sd"])
+        crossed = (mode & (h1 < 0)) | (~mode & (h1 > 0))
+    else:
+        crossed = np.zeros((0, idx.size), bool)
+    bad = ~(np.isfinite(q1) & np.isfinite(qd1))
+    if np.any(bad):
+        j = idx[np.argmax(bad)]
+        raise IntegrationError(
+            f"the state became non-finite in the step ending at t = {T:.6g} s (start phi0 = "
+            f"{cells.q0[j]:.6g} rad); use a smaller step"
+        )
+    hit = np.any(crossed, axis=0)
+    calm = ~hit
+    # cells that stayed on their branch: accept the step
+    keep = idx[calm]
+    cells.t[keep] = T
+    cells.q[keep], cells.qd[keep], cells.z[:, keep] = q1[calm], qd1[calm], end["s"][model.z][:, calm]
+    cells.stalls[keep] = 0
+    _record(cells, keep, T)
+    _store_points(cells, keep, _take(end, calm))
+    if not np.any(hit):
+        return
+    # cells that crossed a switch: locate the first crossing on the cubic Hermite interpolant
+    sub = np.flatnonzero(hit)
+    cells_sub = idx[sub]
+    cells.cached[cells_sub] = False
+    r0 = model.rates(t0[sub], first["s"][:, sub], first["sd"][:, sub], first["sdd"][:, sub])
+    r1 = model.rates(T, end["s"][:, sub], end["sd"][:, sub], end["sdd"][:, sub])
+    theta = np.full((model.switches, sub.size), np.inf)
+    for i in range(model.switches):
+        rows = crossed[i, sub]
+        theta[i, rows] = _hermite_root(h0[i, sub][rows], h1[i, sub][rows], dt[sub][rows] * r0[i, rows],
+                                       dt[sub][rows] * r1[i, rows])
+    which = np.argmin(theta, axis=0)
+    fraction = theta[which, np.arange(sub.size)]
+    qe, qde, event = _rk4(model, t0[sub], fraction * dt[sub], q0[sub], qd0[sub], z0[:, sub],
+                          mode[:, sub], _take(first, sub))
+    te = t0[sub] + fraction * dt[sub]
+    cells.stalls[cells_sub] = np.where(te - t0[sub] < _MIN_PROGRESS, cells.stalls[cells_sub] + 1, 0)
+    if np.any(cells.stalls[cells_sub] > _MAX_STALLS):
+        raise IntegrationError(
+            f"a cell chatters on a switch at t = {float(np.min(te)):.6g} s: {_MAX_STALLS} stops without "
+            "progress; use a smaller step"
+        )
+    cells.t[cells_sub], cells.q[cells_sub], cells.qd[cells_sub] = te, qe, qde
+    cells.z[:, cells_sub] = event["s"][model.z]
+    _record(cells, cells_sub, te)
+    for i in range(model.switches):
+        rows = np.flatnonzero((which == i) & ~cells.done[cells_sub])
+        if rows.size == 0:
+            continue
+        before = cells.mode[i, cells_sub[rows]].copy()
+        _decide(model, cells, cells_sub[rows], i, te[rows], event["s"][:, rows], event["sd"][:, rows])
+        # Grazing at the start of the step (both rates zero, e.g. at rest at a dead centre): the rule
+        # keeps the branch, so the cell would come straight back; it leaves to the side it went.
+        graze = (fraction[rows] == 0) & (cells.mode[i, cells_sub[rows]] == before) & (cells.stuck[cells_sub[rows]] < 0)
+        cells.mode[i, cells_sub[rows][graze]] = h1[i, sub[rows][graze]] > 0
+
+
+_POINT_KEYS = ("s", "sd", "sdd", "qdd", "R", "c")
+
+
+def _first_points(model, cells, idx):
+    """The state and accelerations at the start of a step: kept from the last step's end where valid."""
+    if cells.points is None:
+        point = model.evaluate(cells.t[idx], cells.q[idx], cells.qd[idx], cells.z[:, idx], cells.mode[:, idx])
+        cells.points = {key: np.empty(value.shape[:-1] + cells.q.shape) for key, value in point.items()}
+        _store_points(cells, idx, point)
+        return point
+    missing = idx[~cells.cached[idx]]
+    if missing.size:
+        _store_points(cells, missing, model.evaluate(cells.t[missing], cells.q[missing], cells.qd[missing],
+                                                     cells.z[:, missing], cells.mode[:, missing]))
+    return {key: value[..., idx] for key, value in cells.points.items()}
+
+
+def _store_points(cells, idx, point):
+    if cells.points is None or idx.size == 0:
+        return
+    for key in _POINT_KEYS:
+        cells.points[key][..., idx] = point[key]
+    cells.cached[idx] = True
+
+
+def _hermite_root(h0, h1, m0, m1):
+    """The root in [0, 1] of the cubic Hermite interpolant with values h0, h1 and slopes m0, m1 (per unit).
+
+    Safeguarded Newton: bisection keeps the bracket; 0 where the ends do not bracket a root.
+    """
+    lo, hi = np.zeros_like(h0), np.ones_like(h0)
+    flip = h0 > 0                                  # orient so that p(lo) <= 0 <= p(hi)
+    sign = np.where(flip, -1.0, 1.0)
+    a0, a1, b0, b1 = sign * h0, sign * h1, sign * m0, sign * m1
+    bracket = (a0 <= 0) & (a1 >= 0) & (h0 != 0)
+    x = np.where(a1 - a0 > 0, -a0 / np.where(a1 - a0 > 0, a1 - a0, 1.0), 0.5)
+    for _ in range(30):
+        x2, x3 = x * x, x * x * x
+        p = (2 * x3 - 3 * x2 + 1) * a0 + (x3 - 2 * x2 + x) * b0 + (-2 * x3 + 3 * x2) * a1 + (x3 - x2) * b1
+        dp = (6 * x2 - 6 * x) * a0 + (3 * x2 - 4 * x + 1) * b0 + (-6 * x2 + 6 * x) * a1 + (3 * x2 - 2 * x) * b1
+        lo = np.where(p <= 0, x, lo)
+        hi = np.where(p > 0, x, hi)
+        newton = x - p / np.where(dp != 0, dp, 1.0)
+        x_new = np.where((dp != 0) & (newton > lo) & (newton < hi), newton, 0.5 * (lo + hi))
+        settled = (hi - lo < 1e-13) | (np.abs(x_new - x) < 1e-14) | ~bracket
+        x = x_new
+        if np.all(settled):
+            break
+    return np.where(bracket, np.clip(x, 0.0, 1.0), 0.0)
+
+
+def _record(cells, idx, t):
+    """Largest excursion so far; a cell that turned 2 pi is finished."""
+    if idx.size == 0:
+        return
+    cells.excursion[idx] = np.maximum(cells.excursion[idx], np.abs(cells.q[idx] - cells.q0[idx]))
+    turned = idx[motion_codes(cells.excursion[idx]) == 1]
+    fresh = turned[np.isnan(cells.decided_at[turned])]
+    cells.decided_at[fresh] = np.broadcast_to(t, idx.shape)[np.isin(idx, fresh)]
+    if cells.finish_early:
+        cells.done[turned] = True
+
+
+def _check_stuck(model, cells, T):
+    """The sticking rule: a stuck cell is released where the holding force leaves the branches' range."""
+    idx = np.flatnonzero((cells.stuck >= 0) & ~cells.done)
+    if idx.size == 0:
+        return
+    for i in np.unique(cells.stuck[idx]):
+        sub = idx[cells.stuck[idx] == i]
+        s, _ = model.configuration(cells.q[sub], cells.z[:, sub])
+        rest = np.zeros_like(s)
+        rates = []
+        for side in (False, True):
+            trial = cells.mode[:, sub].copy()
+            trial[i] = side
+            sdd = model.rest_accelerations(T, s, trial)
+            rates.append(model.rates(T, s, rest, sdd)[i])
+        off, on = rates
+        margin = np.minimum(off, -on)
+        free = margin <= 0
+        if np.any(free):
+            cells_free = sub[free]
+            previous = cells.margin[cells_free]
+            step_back = (T - cells.t[cells_free])
+            weight = np.where(previous - margin[free] > 0, previous / (previous - margin[free]), 1.0)
+            cells.t[cells_free] = cells.t[cells_free] + np.clip(weight, 0.0, 1.0) * step_back
+            fresh = cells_free[np.isnan(cells.first_release[cells_free])]
+            cells.first_release[fresh] = cells.t[fresh]
+            cells.mode[i, cells_free] = off[free] > 0
+            cells.stuck[cells_free] = -1
+            cells.cached[cells_free] = False
+            cells.events[cells_free] += 1
+        held = sub[~free]
+        cells.margin[held] = margin[~free]
+        cells.t[held] = T
+
+
+@dataclass(frozen=True)
+class Agreement:
+    """How a basin map compares with a reference on some cells."""
+
+    cells: int                   # cells compared
+    agreeing: int
+    disagreeing: list            # (row, column) of each disagreeing cell, row = dphi0 index
+    on_boundary: list            # for each disagreeing cell: has it a neighbour of the other class?
+
+    @property
+    def fraction(self):
+        return self.agreeing / self.cells if self.cells else math.nan
+
+
+@dataclass
+class BasinMap:
+    """A basin map: the outcome of every cell of a grid of initial conditions.
+
+    Attributes
+    ----------
+    phi0 : ndarray, shape (N,)
+        Initial crank angles [rad] (columns).
+    dphi0 : ndarray, shape (M,)
+        Initial crank speeds [rad/s] (rows).
+    outcome : ndarray of int, shape (M, N)
+        0 = oscillation, 1 = full rotation (``labels``).
+    t_end : float
+    step : float
+        Step of the batch integrator [s].
+    labels : dict
+        Code -> outcome name, from :data:`closedloop.slider_crank.MOTIONS`.
+    excursion, decided_at, stuck_at : ndarray, shape (M, N)
+        Largest |phi - phi0| [rad], the time the crank turned 2 pi, the first
+        time the slider stuck (nan where it did not happen).
+    wall_time, cpu_time : float
+        Seconds of the whole computation (cpu_time summed over worker processes).
+    workers : int
+    evaluations : int
+        Vectorised evaluations of the accelerations (per worker, summed).
+    cell_evaluations : int
+        Evaluations counted per cell.
+    max_constraint_error : float
+        Largest |f| (32) at the final states.
+    reading : str
+    version : str
+    """
+
+    phi0: np.ndarray
+    dphi0: np.ndarray
+    outcome: np.ndarray
+    t_end: float
+    step: float
+    labels: dict
+    excursion: np.ndarray
+    decided_at: np.ndarray
+    stuck_at: np.ndarray
+    wall_time: float
+    cpu_time: float
+    workers: int
+    evaluations: int
+    cell_evaluations: int
+    max_constraint_error: float
+    reading: str
+    version: str = field(default="")
+
+    @property
+    def fraction_rotating(self):
+        """The share of cells that turn a full revolution."""
+        return float(np.mean(self.outcome == 1))
+
+    def outcome_at(self, phi0, dphi0):
+        """The outcome code of the sample nearest to (phi0, dphi0)."""
+        return int(self.outcome[_cell_index(self.dphi0, dphi0), _cell_index(self.phi0, phi0)])
+
+    def as_json(self):
+        """The JSON object written by ``closedloop basin --json``."""
+        return {
+            "phi0": self.phi0.tolist(), "dphi0": self.dphi0.tolist(), "t_end": self.t_end,
+            "outcome": self.outcome.tolist(), "labels": {str(k): v for k, v in self.labels.items()},
+            "version": self.version, "cpu_s": self.cpu_time, "wall_s": self.wall_time,
+            "step": self.step, "reading": self.reading, "workers": self.workers,
+        }
+
+
+def _cell_index(values, value):
+    """Index of the sample nearest to ``value``."""
+    return int(np.argmin(np.abs(np.asarray(values) - value)))
+
+
+def _check_grid(phi0_values, dphi0_values):
+    arrays = []
+    for name, values in (("phi0", phi0_values), ("dphi0", dphi0_values)):
+        values = np.atleast_1d(np.asarray(values, dtype=float))
+        if values.ndim != 1 or values.size == 0:
+            raise InputError(f"{name}: need a non-empty list of values")
+        if not np.all(np.isfinite(values)):
+            raise InputError(f"{name}: values must be finite")
+        if values.size > 1 and np.any(np.diff(values) <= 0):
+            raise InputError(f"{name}: values must increase strictly")
+        arrays.append(values)
+    return arrays
+
+
+def _chunk(args):
+    """One worker's share of the grid (top level, so that multiprocessing can pickle it)."""
+    reading, phi0, dphi0, t_end, step = args
+    start = time.process_time()
+    result = integrate_outcomes(slider_crank_system(reading=reading), phi0, dphi0, t_end, step)
+    return result, time.process_time() - start
+
+
+def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, reading=None, workers=1,
+              progress=None):
+    """Classify every cell of a grid of initial conditions: full rotation or oscillation.
+
+    Parameters
+    ----------
+    phi0_values : array_like, shape (N,)
+        Initial crank angles [rad], increasing (see :func:`grid_values`).
+    dphi0_values : array_like, shape (M,)
+        Initial crank speeds [rad/s], increasing.
+    t_end : float, optional
+        Length of each run [s], > 0; default 20 s, as the paper's figures.
+    step : float, optional
+        Step of the batch integrator [s]; default :data:`DEFAULT_STEP`.
+    reading : str, optional
+        Reading of the paper's data; default the one that reproduces the paper.
+    workers : int, optional
+        Processes to use (the grid is split into that many chunks); 1 runs in this process.
+    progress : callable, optional
+        ``progress(fraction)``, called as the work advances (only with one worker
+        it follows time; with several, it follows finished chunks).
+
+    Returns
+    -------
+    BasinMap
+    """
+    from . import __version__
+    from .slider_crank import DEFAULT_READING, get_reading
+
+    phi0_values, dphi0_values = _check_grid(phi0_values, dphi0_values)
+    _check_time(t_end, step)
+    reading = get_reading(DEFAULT_READING if reading is None else reading).name
+    if not (isinstance(workers, (int, np.integer)) and 1 <= workers <= (os.cpu_count() or 1) * 4):
+        raise InputError(f"workers: must be an integer from 1 to {(os.cpu_count() or 1) * 4}, got {workers!r}")
+    phi_grid, dphi_grid = np.meshgrid(phi0_values, dphi0_values)
+    phi_flat, dphi_flat = phi_grid.ravel(), dphi_grid.ravel()
+    wall, cpu = time.perf_counter(), time.process_time()
+    if workers == 1:
+        results = [(integrate_outcomes(slider_crank_system(reading=reading), phi_flat, dphi_flat, t_end, step,
+                                       progress=progress), 0.0)]
+        order = [np.arange(phi_flat.size)]
+    else:
+        import multiprocessing
+
+        order = [np.arange(phi_flat.size)[j::workers] for j in range(workers)]   # interleaved: equal work
+        tasks = [(reading, phi_flat[o], dphi_flat[o], t_end, step) for o in order]
+        slider_crank_system(reading=reading)            # derive once, before the workers fork
+        with multiprocessing.get_context("fork").Pool(workers) as pool:
+            results = []
+            for done, item in enumerate(pool.imap(_chunk, tasks), 1):
+                results.append(item)
+                if progress is not None:
+                    progress(done / workers)
+    size = phi_flat.size
+    fields_ = {name: np.empty(size) for name in ("outcome", "excursion", "decided_at", "stuck_at")}
+    for o, (result, _) in zip(order, results):
+        fields_["outcome"][o] = result.codes
+        fields_["excursion"][o] = result.excursion
+        fields_["decided_at"][o] = result.decided_at
+        fields_["stuck_at"][o] = result.stuck_at
+    shape = (dphi0_values.size, phi0_values.size)
+    return BasinMap(
+        phi0=phi0_values, dphi0=dphi0_values, outcome=fields_["outcome"].astype(int).reshape(shape),
+        t_end=float(t_end), step=results[0][0].step, labels=dict(enumerate(MOTIONS)),
+        excursion=fields_["excursion"].reshape(shape), decided_at=fields_["decided_at"].reshape(shape),
+        stuck_at=fields_["stuck_at"].reshape(shape), wall_time=time.perf_counter() - wall,
+        cpu_time=time.process_time() - cpu + sum(c for _, c in results), workers=workers,
+        evaluations=sum(r.evaluations for r, _ in results),
+        cell_evaluations=sum(r.cell_evaluations for r, _ in results),
+        max_constraint_error=max(r.max_constraint_error for r, _ in results), reading=reading,
+        version=__version__,
+    )
+
+
+#: Settings of the per-trajectory reference of :func:`reference_outcomes`.
+REFERENCE = {"method": "DOP853", "rtol": 1e-10, "atol": 1e-10}
+
+
+def reference_outcome(system, phi0, dphi0, t_end=20.0):
+    """One cell classified by :func:`closedloop.simulate` (Minimal, DOP853, rtol = atol = 1e-10).
+
+    The run stops once ``|phi - phi0|`` passes 2 pi + 0.5 rad (the outcome is
+    then settled); :func:`~closedloop.slider_crank.classify_motion` decides.
+    """
+    from .formulations import Minimal
+    from .simulation import simulate
+    from .slider_crank import classify_motion
+
+    limit = 2.0 * math.pi + 0.5
+    result = simulate(system, initial_state(system, float(phi0), float(dphi0)), t_end, formulation=Minimal(),
+                      stop_when=lambda t, s, sd: abs(s[0] - phi0) - limit, **REFERENCE)
+    return MOTIONS.index(classify_motion(result, phi0))
+
+
+def reference_outcomes(phi0_values, dphi0_values, t_end=20.0, cells=None, reading=None):
+    """The reference outcome of grid cells, one :func:`closedloop.simulate` run per cell.
+
+    Parameters
+    ----------
+    phi0_values, dphi0_values : array_like
+        The grid, as for :func:`basin_map`.
+    t_end : float
+    cells : iterable of (row, column), optional
+        Only these cells (row indexes dphi0, column indexes phi0); default all.
+    reading : str, optional
+
+    Returns
+    -------
+    ndarray of int, shape (M, N)
+        Outcome codes; -1 where a cell was not computed.
+    """
+    from .slider_crank import DEFAULT_READING
+
+    phi0_values, dphi0_values = _check_grid(phi0_values, dphi0_values)
+    system = slider_crank_system(reading=DEFAULT_READING if reading is None else reading)
+    out = np.full((dphi0_values.size, phi0_values.size), -1)
+    if cells is None:
+        cells = [(i, j) for i in range(dphi0_values.size) for j in range(phi0_values.size)]
+    for i, j in cells:
+        out[i, j] = reference_outcome(system, phi0_values[j], dphi0_values[i], t_end)
+    return out
+
+
+def boundary_cells(outcome):
+    """Cells with a neighbour (left, right, up or down) of the other outcome: the basin boundary.
+
+    Cells marked -1 (not computed) are no one's neighbour.
+
+    Returns
+    -------
+    ndarray of bool, same shape as ``outcome``
+    """
+    outcome = np.asarray(outcome)
+    boundary = np.zeros(outcome.shape, bool)
+    for axis in (0, 1):
+        a = np.moveaxis(outcome, axis, 0)
+        b = np.moveaxis(boundary, axis, 0)
+        differ = (a[1:] != a[:-1]) & (a[1:] >= 0) & (a[:-1] >= 0)
+        b[1:] |= differ
+        b[:-1] |= differ
+    return boundary
+
+
+def compare_outcomes(outcome, reference, boundary_from=None):
+    """Compare a map with a reference on the cells the reference computed (>= 0).
+
+    A disagreeing cell is "on the boundary" if it has a neighbour of the other
+    class in ``boundary_from`` (default: the reference itself when it is a
+    full grid, else the map).
+    """
+    outcome, reference = np.asarray(outcome), np.asarray(reference)
+    computed = reference >= 0
+    if boundary_from is None:
+        boundary_from = reference if np.all(computed) else outcome
+    boundary = boundary_cells(boundary_from)
+    wrong = computed & (outcome != reference)
+    rows, cols = np.nonzero(wrong)
+    cells = [(int(i), int(j)) for i, j in zip(rows, cols)]
+    return Agreement(cells=int(computed.sum()), agreeing=int((computed & ~wrong).sum()), disagreeing=cells,
+                     on_boundary=[bool(boundary[i, j]) for i, j in cells])

@@ -1,0 +1,222 @@
+"""The basin map: the batch integrator against simulate(), the boundary, the sticking rule, the command."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from closedloop import Minimal, simulate
+from closedloop.basin import (basin_map, boundary_cells, compare_outcomes, grid_values, integrate_outcomes,
+                              reference_outcome, reference_outcomes)
+from closedloop.cli import main
+from closedloop.errors import InputError
+from closedloop.slider_crank import CASES, MOTIONS, GasForce, classify_motion, initial_state, motion_codes
+
+#: A 12 x 10 grid that cuts across the basin boundary (see the chapter's map).
+SMALL_PHI0 = grid_values(0.5 * math.pi, 1.5 * math.pi, 12)
+SMALL_DPHI0 = grid_values(0.5, 2.0, 10)
+
+
+@pytest.fixture(scope="module")
+def small_map():
+    return basin_map(SMALL_PHI0, SMALL_DPHI0, 20.0)
+
+
+@pytest.fixture(scope="module")
+def small_reference():
+    return reference_outcomes(SMALL_PHI0, SMALL_DPHI0, 20.0)
+
+
+def test_small_grid_has_both_outcomes_and_a_boundary(small_reference):
+    """The agreement test below is only worth something if the grid crosses the boundary."""
+    assert 0.2 < np.mean(small_reference == 1) < 0.8
+    assert np.sum(boundary_cells(small_reference)) >= 10
+
+
+def test_map_agrees_with_per_trajectory_simulate_off_the_boundary(small_map, small_reference):
+    """At least 99.5 % agreement: on 120 cells that allows no disagreement except on the boundary."""
+    agreement = compare_outcomes(small_map.outcome, small_reference)
+    assert agreement.cells == 120
+    assert all(agreement.on_boundary), agreement.disagreeing
+    assert len(agreement.disagreeing) <= 1
+
+
+def test_batch_final_state_matches_simulate_to_the_step_error(slider_crank):
+    """Case 3 swings for 20 s through many switches: the batch and simulate (rtol 1e-10) end together."""
+    case = CASES[3]
+    batch = integrate_outcomes(slider_crank, [case.phi0], [case.dphi0], 20.0)
+    result = simulate(slider_crank, initial_state(slider_crank, case.phi0, case.dphi0), 20.0,
+                      formulation=Minimal(), method="DOP853", rtol=1e-10, atol=1e-10)
+    assert batch.switch_events[0] >= 5
+    assert batch.final_phi[0] == pytest.approx(result.coordinate("phi")[-1], abs=1e-6)
+    assert batch.final_dphi[0] == pytest.approx(result.velocity("phi")[-1], abs=1e-6)
+    assert batch.excursion[0] == pytest.approx(np.max(np.abs(result.coordinate("phi") - case.phi0)), abs=1e-4)
+    assert batch.max_constraint_error < 1e-12
+
+
+def test_the_four_cases_get_the_papers_outcomes(slider_crank):
+    """Batch, map and simulate+classify_motion all give the paper's finding for cases 1-4."""
+    phi0 = [case.phi0 for case in CASES.values()]
+    dphi0 = [case.dphi0 for case in CASES.values()]
+    batch = integrate_outcomes(slider_crank, phi0, dphi0, 20.0)
+    basin = basin_map(grid_values(0.0, 2 * math.pi, 4), grid_values(0.0, 3.0, 6), 20.0)   # holds all four points
+    for code, case in zip(batch.codes, CASES.values()):
+        result = simulate(slider_crank, initial_state(slider_crank, case.phi0, case.dphi0), 20.0)
+        assert MOTIONS[code] == classify_motion(result, case.phi0) == case.finding
+        assert MOTIONS[basin.outcome_at(case.phi0, case.dphi0)] == case.finding
+        assert reference_outcome(slider_crank, case.phi0, case.dphi0) == code
+
+
+@pytest.mark.parametrize("number, expected", [(3, 28.4), (1, 37.8)])
+def test_batch_sticks_where_simulate_does(slider_crank, number, expected):
+    """The sticking rule: cases 3 and 1 stick mid-stroke after 20 s (NOTES.md), and stay stuck."""
+    case = CASES[number]
+    batch = integrate_outcomes(slider_crank, [case.phi0], [case.dphi0], 40.0)
+    assert batch.stuck_at[0] == pytest.approx(expected, abs=0.1)
+    assert np.isnan(batch.released_at[0]) and batch.final_dphi[0] == 0.0
+
+
+def test_batch_releases_a_stuck_slider_where_simulate_does():
+    """A torque ripple of 60 N m frees the slider: stuck at t = 0, released, stuck again, as simulate finds."""
+    from closedloop.slider_crank import OMEGA, SliderCrankParameters, SliderCrankSystem, get_reading
+
+    reading, parameters = get_reading("decimal-opposing"), SliderCrankParameters()
+    values = dict(parameters.as_dict(), torque_mean=reading.torque_mean, torque_ripple=60.0, omega=OMEGA)
+    system = SliderCrankSystem(parameters, reading, values, GasForce(reading))
+    phi0 = 1.34
+    result = simulate(system, initial_state(system, phi0, 0.0), 4.0, formulation=Minimal(), method="DOP853",
+                      rtol=1e-10, atol=1e-10)
+    (start, end), *later = result.sticking_intervals
+    assert start == 0.0 and len(later) >= 2
+    batch = integrate_outcomes(system, [phi0], [0.0], 4.0, finish_early=False)
+    assert batch.stuck_at[0] == 0.0
+    assert batch.released_at[0] == pytest.approx(end, abs=1e-3)
+    assert batch.final_phi[0] == pytest.approx(result.coordinate("phi")[-1], abs=1e-6)
+    assert batch.final_dphi[0] == result.velocity("phi")[-1] == 0.0     # stuck again at the end
+
+
+def test_arrays_of_states_give_the_same_dynamics_as_one_state(slider_crank):
+    """System.dynamics_many and GasForce.many (numpy, many cells) against the one-state functions."""
+    rng = np.random.default_rng(3)
+    size = 7
+    s = np.array([rng.uniform(0, 2 * math.pi, size), rng.uniform(2.5, 3.8, size), rng.uniform(1.5, 5.5, size)])
+    sd = rng.normal(size=(3, size))
+    t = rng.uniform(0, 20, size)
+    mode = rng.random((2, size)) < 0.5
+    M, p1, f, Phi, gamma = slider_crank.dynamics_many(t, s, sd)
+    force = slider_crank.force.many(t, s, sd, mode)
+    for j in range(size):
+        one = slider_crank.dynamics(t[j], s[:, j], sd[:, j], tuple(mode[:, j]))
+        np.testing.assert_allclose(M[:, :, j], one[0], rtol=1e-13)
+        np.testing.assert_allclose(p1[:, j] + force[:, j], one[1], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(f[:, j], one[2], rtol=1e-13, atol=1e-14)
+        np.testing.assert_allclose(Phi[:, :, j], one[3], rtol=1e-13, atol=1e-14)
+        np.testing.assert_allclose(gamma[:, j], one[4], rtol=1e-12, atol=1e-12)
+
+
+def test_motion_codes_is_the_rule_of_classify_motion():
+    assert list(motion_codes([0.0, 2 * math.pi - 1e-9, 2 * math.pi, 7.0])) == [0, 0, 1, 1]
+    assert MOTIONS[motion_codes(2 * math.pi)] == "full rotation"
+
+
+def test_boundary_cells_are_those_with_a_neighbour_of_the_other_outcome():
+    outcome = np.array([[0, 0, 0, 0],
+                        [0, 0, 1, 1],
+                        [0, -1, 1, 1]])
+    expected = np.array([[0, 0, 1, 1],
+                         [0, 1, 1, 1],
+                         [0, 0, 0, 0]], bool)       # -1 (not computed) is no one's neighbour
+    np.testing.assert_array_equal(boundary_cells(outcome), expected)
+    agreement = compare_outcomes(np.array([[0, 1], [1, 1]]), np.array([[0, 0], [1, 1]]))
+    assert agreement.disagreeing == [(0, 1)] and agreement.on_boundary == [True]
+    assert agreement.fraction == 0.75
+
+
+def test_two_workers_give_the_same_map_as_one():
+    phi0, dphi0 = grid_values(0.0, 2 * math.pi, 8), grid_values(0.0, 3.0, 5)
+    one = basin_map(phi0, dphi0, 3.0)
+    two = basin_map(phi0, dphi0, 3.0, workers=2)
+    np.testing.assert_array_equal(one.outcome, two.outcome)
+    np.testing.assert_allclose(one.excursion, two.excursion, rtol=1e-12)
+    assert two.workers == 2 and one.outcome.shape == (5, 8)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"t_end": 0.0}, "t_end: must be a finite number > 0"),
+    ({"step": -0.1}, "step: must be a finite number > 0"),
+    ({"step": 30.0}, "step: must be <= t_end"),
+    ({"workers": 0}, "workers: must be an integer"),
+])
+def test_basin_map_refuses_bad_input_before_integrating(kwargs, message):
+    with pytest.raises(InputError, match=message):
+        basin_map([1.0, 2.0], [0.5], **{"t_end": 20.0, **kwargs})
+    with pytest.raises(InputError, match="phi0: values must increase"):
+        basin_map([2.0, 1.0], [0.5])
+
+
+def test_command_writes_json_and_png(tmp_path, capsys):
+    path, png = tmp_path / "map.json", tmp_path / "map.png"
+    assert main(["basin", "--phi0", "0:2pi:4", "--dphi0", "0.5:1.5:2", "--t-end", "6",
+                 "--json", str(path), "--png", str(png)]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == ""                                  # no progress bar when stderr is not a terminal
+    assert "4 x 2 cells" in captured.out and "full rotation:" in captured.out
+    data = json.loads(path.read_text())
+    assert set(data) >= {"phi0", "dphi0", "t_end", "outcome", "labels", "version", "cpu_s"}
+    assert data["phi0"] == pytest.approx([0.0, math.pi / 2, math.pi, 1.5 * math.pi])
+    assert data["dphi0"] == pytest.approx([0.5, 1.0]) and data["t_end"] == 6.0
+    assert np.array(data["outcome"]).shape == (2, 4)
+    assert data["labels"] == {"0": "oscillation", "1": "full rotation"}
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--phi0", "0:1", "--dphi0", "0:3:5"], "phi0: expected START:STOP:N, got '0:1'"),
+    (["--phi0", "0:1:0", "--dphi0", "0:3:5"], "phi0: N must be an integer >= 1, got 0"),
+    (["--phi0", "0:1:2.5", "--dphi0", "0:3:5"], "phi0: N must be an integer >= 1, got '2.5'"),
+    (["--phi0", "1:0:4", "--dphi0", "0:3:5"], "phi0: STOP must be > START"),
+    (["--phi0", "0:7:4", "--dphi0", "0:3:5"], "phi0: the range must lie inside [0, 2pi]"),
+    (["--phi0=-1:2:4", "--dphi0", "0:3:5"], "phi0: the range must lie inside [0, 2pi]"),
+    (["--phi0", "0:2pi:4", "--dphi0=-1:3:5"], "dphi0: START must be >= 0"),
+    (["--phi0", "0:x:4", "--dphi0", "0:3:5"], "phi0: expected a number, got 'x'"),
+    (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--t-end", "0"], "t_end: must be > 0 s"),
+    (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--png", "map.svg"], "png: the figure is written as PNG"),
+    (["--phi0", "0:2pi:4"], "the following arguments are required: --dphi0"),
+])
+def test_basin_bad_input_is_one_line_and_exit_2(args, message, capsys):
+    assert main(["basin", *args]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert captured.out == "" and len(lines) == 1
+    assert lines[0].startswith("closedloop: error: ") and message in lines[0]
+
+
+def test_map_figure_marks_the_four_cases_where_they_are():
+    from closedloop.plotting import plot_basin_map
+
+    whole = basin_map(grid_values(0.0, 2 * math.pi, 4), grid_values(0.0, 3.0, 3), 1.0)
+    ax = plot_basin_map(whole).axes[0]
+    marked = {(round(x, 9), round(y, 9)) for line in ax.lines for x, y in zip(*line.get_data())}
+    assert marked == {(round(c.phi0, 9), round(c.dphi0, 9)) for c in CASES.values()}
+    assert sorted(t.get_text() for t in ax.texts) == ["1", "2", "3", "4"]
+    # a map drawn over [0.7 pi, 1.1 pi] x [0.55, 1.55] rad/s holds only cases 1 and 4
+    part = basin_map(grid_values(0.8 * math.pi, 1.2 * math.pi, 2), grid_values(0.8, 1.8, 2), 1.0)
+    assert sorted(t.get_text() for t in plot_basin_map(part).axes[0].texts) == ["1", "4"]
+
+
+def test_progress_bar_only_on_a_terminal(monkeypatch, capsys):
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    terminal = Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert main(["basin", "--phi0", "0:2pi:2", "--dphi0", "0:1:1", "--t-end", "0.5"]) == 0
+    bar = terminal.getvalue()
+    assert bar.startswith("\r[") and "100 %" in bar and bar.endswith("\n")
+    assert "[" + "#" * 40 + "]" in bar
+    assert "\r" not in capsys.readouterr().out                # the bar never goes to stdout
