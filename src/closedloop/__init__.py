@@ -12,6 +12,7 @@ from .formulations import (Augmented, Baumgarte, Minimal, Orthogonal, baumgarte_
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
 from .model import DerivedModel, MultibodyModel, System, derive
+from .projection import Projected, project_state
 from .simulation import SimulationResult, simulate
 
 __version__ = "0.1.0"
@@ -20,5 +21,6 @@ __all__ = [
     "Augmented", "Baumgarte", "Orthogonal", "Minimal", "baumgarte_from_step", "baumgarte_p2", "formulation_from_name",
     "MultibodyModel", "DerivedModel", "derive", "System", "SwitchedForce",
     "InitialState", "consistent_initial_state", "simulate", "SimulationResult",
+    "Projected", "project_state",
     "ClosedLoopError", "InputError", "ConvergenceError", "SingularConfigurationError", "IntegrationError",
 ]

@@ -239,7 +239,7 @@ class Minimal:
         return R @ qdd + c
 
 
-FORMULATION_NAMES = ("augmented", "baumgarte", "orthogonal", "minimal")
+FORMULATION_NAMES = ("augmented", "baumgarte", "orthogonal", "minimal", "projected")
 
 
 def formulation_from_name(name, alpha=None, beta=None):
@@ -247,7 +247,7 @@ def formulation_from_name(name, alpha=None, beta=None):
 
     Parameters
     ----------
-    name : {"augmented", "baumgarte", "orthogonal", "minimal"}
+    name : {"augmented", "baumgarte", "orthogonal", "minimal", "projected"}
     alpha, beta : float, optional
         Only for "baumgarte" and "orthogonal" (default 5 and 5, Baumgarte's choice).
     """
@@ -260,4 +260,8 @@ def formulation_from_name(name, alpha=None, beta=None):
         raise InputError(
             f"alpha, beta: only the baumgarte and orthogonal formulations take gains, not {name!r}"
         )
+    if name == "projected":
+        from .projection import Projected      # projection.py builds on this module
+
+        return Projected()
     return Augmented() if name == "augmented" else Minimal()

@@ -36,12 +36,13 @@ from scipy.optimize import brentq
 from .errors import InputError, IntegrationError
 from .formulations import Augmented, Baumgarte, Minimal, Orthogonal
 from .kinematics import InitialState
+from .projection import Projected
 
 __all__ = ["simulate", "SimulationResult", "SwitchEvent", "SOLVER_METHODS"]
 
 #: The solve_ivp methods simulate() accepts by name (an OdeSolver subclass is accepted too).
 SOLVER_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
-_FORMULATIONS = (Augmented, Baumgarte, Orthogonal, Minimal)
+_FORMULATIONS = (Augmented, Baumgarte, Orthogonal, Minimal, Projected)
 #: Constraint error above which an initial state is refused as inconsistent.
 INITIAL_TOLERANCE = 1e-8
 _MIN_PROGRESS = 1e-12   # a segment shorter than this (s) makes no progress
@@ -131,9 +132,12 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
         if not (np.all(np.isfinite(value)) and np.all(np.asarray(value) > 0)):
             raise InputError(f"{name}: must be finite and > 0, got {value!r}")
     if not isinstance(formulation, _FORMULATIONS):
-        raise InputError(f"formulation: expected Augmented, Baumgarte, Orthogonal or Minimal, got {formulation!r}")
+        raise InputError(f"formulation: expected Augmented, Baumgarte, Orthogonal, Minimal or Projected, "
+                         f"got {formulation!r}")
     if not (method in SOLVER_METHODS or (isinstance(method, type) and issubclass(method, OdeSolver))):
         raise InputError(f"method: unknown {method!r}; choose one of {', '.join(SOLVER_METHODS)}")
+    if isinstance(formulation, Projected):
+        formulation.check_method(method)
     reserved = {"events", "dense_output", "args", "vectorized"} & set(options)
     if reserved:
         raise InputError(f"solver options: {sorted(reserved)} are managed by simulate()")
@@ -173,10 +177,11 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     t_end : float, optional
         Final time, > ``t_start``.  Default 20 s.
     t_start : float, optional
-    formulation : Augmented, Baumgarte, Orthogonal or Minimal, optional
+    formulation : Augmented, Baumgarte, Orthogonal, Minimal or Projected, optional
         Default ``Baumgarte(5, 5)``, Baumgarte's own choice.
     method : str or OdeSolver, optional
-        Any solve_ivp method; default "RK45".
+        Any solve_ivp method; default "RK45".  Projected takes only RK23, RK45
+        and DOP853 (see :mod:`closedloop.projection`).
     rtol, atol : float, optional
         Tolerances passed to solve_ivp, > 0.
     t_eval : array_like, optional
@@ -350,7 +355,9 @@ class _Run:
             reached[0] = t
             return rhs(t, y)
 
-        sol = solve_ivp(timed_rhs, (t0, self.t_end), y0, method=self.method, rtol=self.rtol,
+        integrator = getattr(formulation, "integrator", None)   # Projected resets the state after each step
+        method = self.method if integrator is None else integrator(system, self.method)
+        sol = solve_ivp(timed_rhs, (t0, self.t_end), y0, method=method, rtol=self.rtol,
                         atol=self.atol, t_eval=t_eval, events=events or None, **self.options)
         self.nfev += sol.nfev
         if sol.status == -1:
