@@ -357,8 +357,14 @@ class _Run:
 
         integrator = getattr(formulation, "integrator", None)   # Projected resets the state after each step
         method = self.method if integrator is None else integrator(system, self.method)
-        sol = solve_ivp(timed_rhs, (t0, self.t_end), y0, method=method, rtol=self.rtol,
-                        atol=self.atol, t_eval=t_eval, events=events or None, **self.options)
+        try:
+            sol = solve_ivp(timed_rhs, (t0, self.t_end), y0, method=method, rtol=self.rtol,
+                            atol=self.atol, t_eval=t_eval, events=events or None, **self.options)
+        except ValueError as error:     # scipy's root finder: a switching function with no sign change
+            raise IntegrationError(
+                f"{self.method} could not locate a switch near t = {reached[0]:.6g} s ({error}); "
+                "tighten rtol and atol"
+            ) from None
         self.nfev += sol.nfev
         if sol.status == -1:
             raise IntegrationError(
