@@ -12,6 +12,7 @@ from .formulations import (Augmented, Baumgarte, ClosedForm, Minimal, NullSpace,
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
 from .model import DerivedModel, MultibodyModel, System, derive
+from .projection import Projected, project_state
 from .simulation import SimulationResult, simulate
 
 __version__ = "0.1.0"
@@ -21,5 +22,6 @@ __all__ = [
     "MultibodyModel", "DerivedModel", "derive", "System", "SwitchedForce",
     "InitialState", "consistent_initial_state", "simulate", "SimulationResult",
     "NullSpace", "null_space_basis", "ClosedForm",
+    "Projected", "project_state",
     "ClosedLoopError", "InputError", "ConvergenceError", "SingularConfigurationError", "IntegrationError",
 ]

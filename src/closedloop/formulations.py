@@ -403,7 +403,7 @@ class ClosedForm(_Stabilised):
         return np.asarray(rhs(t, np.concatenate((s, sd)))[system.n:])
 
 
-FORMULATION_NAMES = ("augmented", "baumgarte", "orthogonal", "minimal", "nullspace", "closed-form")
+FORMULATION_NAMES = ("augmented", "baumgarte", "orthogonal", "minimal", "nullspace", "closed-form", "projected")
 
 
 def formulation_from_name(name, alpha=None, beta=None):
@@ -411,7 +411,7 @@ def formulation_from_name(name, alpha=None, beta=None):
 
     Parameters
     ----------
-    name : {"augmented", "baumgarte", "orthogonal", "minimal", "nullspace", "closed-form"}
+    name : {"augmented", "baumgarte", "orthogonal", "minimal", "nullspace", "closed-form", "projected"}
     alpha, beta : float, optional
         Only for "baumgarte", "orthogonal", "nullspace" and "closed-form" (default 5 and 5,
         Baumgarte's choice).
@@ -427,4 +427,8 @@ def formulation_from_name(name, alpha=None, beta=None):
             "alpha, beta: only the baumgarte, orthogonal, nullspace and closed-form formulations take gains, "
             f"not {name!r}"
         )
+    if name == "projected":
+        from .projection import Projected      # projection.py builds on this module
+
+        return Projected()
     return Augmented() if name == "augmented" else Minimal()

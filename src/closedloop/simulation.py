@@ -58,6 +58,7 @@ from . import ode_dop853
 from .errors import InputError, IntegrationError, SingularConfigurationError
 from .formulations import Augmented, Baumgarte, ClosedForm, Minimal, NullSpace, Orthogonal
 from .kinematics import InitialState
+from .projection import Projected
 
 __all__ = ["simulate", "SimulationResult", "SwitchEvent", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT"]
 
@@ -65,7 +66,7 @@ __all__ = ["simulate", "SimulationResult", "SwitchEvent", "SOLVER_METHODS", "SWI
 #: of scipy.integrate.ode with events added by :mod:`closedloop.ode_dop853`.  An OdeSolver
 #: subclass is accepted too.
 SOLVER_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", ode_dop853.METHOD)
-_FORMULATIONS = (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, ClosedForm)
+_FORMULATIONS = (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, ClosedForm, Projected)
 #: Formulations that stop by themselves at det Phi_z = 0 (they divide by it or guard it), the
 #: only ones "ode.dop853" takes: it has no dense output to locate the branch guard's zeros.
 _GUARDED_BY_THEMSELVES = (ClosedForm, Orthogonal, Minimal)
@@ -187,9 +188,11 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
             raise InputError(f"{name}: must be finite and > 0, got {value!r}")
     if not isinstance(formulation, _FORMULATIONS):
         raise InputError(
-            "formulation: expected Augmented, Baumgarte, Orthogonal, Minimal, NullSpace or ClosedForm, "
-            f"got {formulation!r}"
+            "formulation: expected Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, ClosedForm or "
+            f"Projected, got {formulation!r}"
         )
+    if isinstance(formulation, Projected):
+        formulation.check_method(method)
     if switching not in SWITCHING:
         raise InputError(f"switching: unknown {switching!r}; choose one of {', '.join(SWITCHING)}")
     if max_nfev is not None and not (isinstance(max_nfev, (int, np.integer)) and max_nfev > 0):
@@ -208,6 +211,8 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
             )
     if not (method in SOLVER_METHODS or (isinstance(method, type) and issubclass(method, OdeSolver))):
         raise InputError(f"method: unknown {method!r}; choose one of {', '.join(SOLVER_METHODS)}")
+    if isinstance(formulation, Projected):
+        formulation.check_method(method)
     reserved = {"events", "dense_output", "args", "vectorized"} & set(options)
     if reserved:
         raise InputError(f"solver options: {sorted(reserved)} are managed by simulate()")
@@ -253,10 +258,11 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     t_end : float, optional
         Final time, > ``t_start``.  Default 20 s.
     t_start : float, optional
-    formulation : Augmented, Baumgarte, Orthogonal, Minimal or NullSpace, optional
+    formulation : Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, ClosedForm or Projected, optional
         Default ``Baumgarte(5, 5)``, Baumgarte's own choice.
     method : str or OdeSolver, optional
-        Any solve_ivp method; default "RK45".
+        Any solve_ivp method; default "RK45".  Projected takes only RK23, RK45
+        and DOP853 (see :mod:`closedloop.projection`).
     rtol, atol : float, optional
         Tolerances passed to solve_ivp, > 0.
     t_eval : array_like, optional
@@ -526,7 +532,9 @@ class _Run:
                 return np.full(y.size, np.nan)
 
         try:
-            sol = solve_ivp(guarded_rhs, (t0, self.t_end), y0, method=self.budget.solver(self.method),
+            integrator = getattr(formulation, "integrator", None)   # Projected resets the state after each step
+            base = self.method if integrator is None else integrator(system, self.method)
+            sol = solve_ivp(guarded_rhs, (t0, self.t_end), y0, method=self.budget.solver(base),
                             rtol=self.rtol, atol=self.atol, t_eval=t_eval, events=events or None,
                             **self.options)
         except _BudgetExceeded:

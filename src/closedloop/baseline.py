@@ -1,0 +1,185 @@
+"""The slider-crank written the usual way, as a baseline for closedloop's formulations.
+
+Most readers who meet a closed-loop mechanism in Python write it with
+``sympy.physics.mechanics`` and integrate it with ``scipy.integrate.solve_ivp``.
+This module does exactly that, with nothing taken from closedloop's own
+derivation or simulation loop, so that the benchmark (:mod:`closedloop.benchmark`)
+can compare the library with what a reader would otherwise have:
+
+- ``dynamicsymbols`` phi, psi, x_C; T and Pi typed in from section 3 of the
+  paper; the loop constraints (27)-(28) as ``hol_coneqs``;
+- ``LagrangesMethod(L, [phi, psi, x], hol_coneqs=..., forcelist=..., frame=N)``,
+  with the drive torque as ``(A, M(t) N.z)`` on the crank frame A and the gas
+  force as ``(P, F N.x)`` on the slider point P = O + x_C N.x;
+- the gas force as a sympy ``Piecewise`` in (x_C, x_C'), with the same branches
+  and the same reading of the data as :class:`closedloop.slider_crank.GasForce`;
+  the usual user integrates straight through its switches (no events);
+- Table 1 values substituted, ``mass_matrix_full`` and ``forcing_full`` turned
+  into functions by ``lambdify`` with its default settings, and the right-hand
+  side ``y' = mass_matrix_full^{-1} forcing_full`` by ``numpy.linalg.solve``
+  at every call.  This is the unstabilised augmented (index-1) system (12).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from .errors import InputError, IntegrationError
+from .slider_crank import DEFAULT_READING, OMEGA, TORQUE_RIPPLE, SliderCrankParameters, get_reading
+
+__all__ = ["LagrangesBaseline", "BaselineResult"]
+
+#: The solve_ivp methods the baseline accepts.
+BASELINE_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+
+
+@dataclass
+class BaselineResult:
+    """What :meth:`LagrangesBaseline.simulate` computed.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+    s, sd : ndarray, shape (3, N)
+        ``[phi, psi, x_C]`` and their rates.
+    nfev : int
+        Right-hand-side evaluations reported by solve_ivp.
+    cpu_time : float
+        Process time of the ``solve_ivp`` call [s].
+    method : str
+    rtol, atol : float
+    """
+
+    t: np.ndarray
+    s: np.ndarray
+    sd: np.ndarray
+    nfev: int
+    cpu_time: float
+    method: str
+    rtol: float
+    atol: float
+
+
+class LagrangesBaseline:
+    """The slider-crank by ``sympy.physics.mechanics.LagrangesMethod``, lambdified.
+
+    Parameters
+    ----------
+    parameters : SliderCrankParameters, optional
+        Table 1 by default.
+    reading : str, optional
+        How to read the paper's data (see :data:`closedloop.slider_crank.READINGS`);
+        the default reproduces the paper.
+
+    Attributes
+    ----------
+    derivation_cpu_time : float
+        Process time from the first symbol to the lambdified functions [s].
+    """
+
+    def __init__(self, parameters=None, reading=DEFAULT_READING):
+        parameters = SliderCrankParameters() if parameters is None else parameters
+        if not isinstance(parameters, SliderCrankParameters):
+            raise InputError("parameters: expected a SliderCrankParameters")
+        self.parameters = parameters
+        self.reading = get_reading(reading)
+        start = time.process_time()
+        self._mass_full, self._forcing_full = self._derive()
+        self.derivation_cpu_time = time.process_time() - start
+
+    def _derive(self):
+        import sympy as sm
+        import sympy.physics.mechanics as me
+
+        phi, psi, x = me.dynamicsymbols("phi psi x")
+        dphi, dpsi, dx = me.dynamicsymbols("phi psi x", 1)
+        t = me.dynamicsymbols._t
+        l1, a1, m1, I1, l2, a2, m2, I2, m3, g = sm.symbols("l1 a1 m1 I1 l2 a2 m2 I2 m3 g")
+
+        N = me.ReferenceFrame("N")
+        A = N.orientnew("A", "Axis", (phi, N.z))           # the crank: the drive torque acts here
+        O = me.Point("O")
+        O.set_vel(N, 0)
+        P = O.locatenew("P", x * N.x)                      # the slider: the gas force acts here
+
+        T = (sm.Rational(1, 2) * (I1 + m1 * a1**2 + m2 * l1**2) * dphi**2
+             + sm.Rational(1, 2) * (I2 + m2 * a2**2) * dpsi**2 + sm.Rational(1, 2) * m3 * dx**2
+             - m2 * l1 * a2 * dphi * dpsi * sm.cos(phi - psi))
+        Pi = m1 * g * a1 * sm.sin(phi) + m2 * g * l1 * sm.sin(phi) - m2 * g * a2 * sm.sin(psi)
+        f1 = l1 * sm.cos(phi) - l2 * sm.cos(psi) - x                       # (27)
+        f2 = l1 * sm.sin(phi) - l2 * sm.sin(psi)                           # (28)
+
+        reading = self.reading
+        torque = reading.torque_mean + TORQUE_RIPPLE * sm.sin(OMEGA * t)
+        a, b, c = reading.gas_coefficients
+        gas = reading.force_sign * sm.Piecewise(
+            (-a / (6 - x) + b, (dx > 0) & (x >= 1.5) & (x <= 5)),
+            (-c * (1 - sm.sin(2 * sm.pi * (x - sm.Rational(21, 4)))), (dx > 0) & (x > 5) & (x <= 5.5)),
+            (0, True),
+        )
+
+        method = me.LagrangesMethod(T - Pi, [phi, psi, x], hol_coneqs=[f1, f2],
+                                    forcelist=[(A, torque * N.z), (P, gas * N.x)], frame=N)
+        method.form_lagranges_equations()
+        values = {sm.Symbol(name): value for name, value in self.parameters.as_dict().items()}
+        arguments = [phi, psi, x, dphi, dpsi, dx, t]
+        return (sm.lambdify(arguments, method.mass_matrix_full.subs(values)),
+                sm.lambdify(arguments, method.forcing_full.subs(values)))
+
+    def rhs(self, t, y):
+        """``y' = F(t, y)`` for ``y = [phi, psi, x_C, phi', psi', x_C']``.
+
+        ``mass_matrix_full [s'; s''; lambda] = forcing_full``, solved by numpy.
+        """
+        solution = np.linalg.solve(self._mass_full(*y, t), self._forcing_full(*y, t))
+        return solution[:6, 0]
+
+    def simulate(self, initial_state, t_end=20.0, method="RK45", rtol=1e-9, atol=1e-9, t_eval=None):
+        """Integrate from ``initial_state`` (an InitialState) with solve_ivp, as a user would.
+
+        Parameters
+        ----------
+        initial_state : InitialState
+            Consistent ``(s0, s0')``, e.g. from :func:`closedloop.slider_crank.initial_state`.
+        t_end : float, optional
+            Final time [s], > 0.
+        method : str, optional
+            One of :data:`BASELINE_METHODS`.
+        rtol, atol : float, optional
+            > 0.
+        t_eval : array_like, optional
+            Output times; default: the solver's own steps.
+
+        Returns
+        -------
+        BaselineResult
+
+        Raises
+        ------
+        InputError
+            For a parameter outside its range, before integrating.
+        IntegrationError
+            If solve_ivp fails; the message names the time reached.
+        """
+        if not (isinstance(t_end, (int, float, np.floating)) and math.isfinite(t_end) and t_end > 0):
+            raise InputError(f"t_end: must be a finite number > 0 s, got {t_end!r}")
+        if method not in BASELINE_METHODS:
+            raise InputError(f"method: unknown {method!r}; choose one of {', '.join(BASELINE_METHODS)}")
+        for name, value in (("rtol", rtol), ("atol", atol)):
+            if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value > 0):
+                raise InputError(f"{name}: must be finite and > 0, got {value!r}")
+        y0 = np.concatenate((initial_state.s, initial_state.sd))
+        start = time.process_time()
+        sol = solve_ivp(self.rhs, (0.0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval)
+        cpu_time = time.process_time() - start
+        if sol.status != 0:
+            reached = sol.t[-1] if sol.t.size else 0.0
+            raise IntegrationError(f"baseline {method} at rtol {rtol:g} failed after t = {reached:.6g} s: "
+                                   f"{sol.message}")
+        return BaselineResult(t=sol.t, s=sol.y[:3], sd=sol.y[3:], nfev=sol.nfev, cpu_time=cpu_time,
+                              method=method, rtol=rtol, atol=atol)

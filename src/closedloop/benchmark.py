@@ -1,0 +1,598 @@
+"""Error against run time: which formulation and integrator buy the most accuracy per second.
+
+The study behind ``closedloop benchmark`` and chapter 8.  For each of the
+paper's four cases it integrates the slider-crank over 0-20 s with every entry
+of :func:`study_entries` (the library's formulations and the same model
+written the usual way with ``sympy.physics.mechanics``, :mod:`closedloop.baseline`),
+every solve_ivp method of the settings, and a ladder of tolerances
+(``atol = rtol``), and records one row per run.
+
+Measures of one row
+-------------------
+error_t10
+    ``max_k |y_k(10) - y_k,ref(10)|``, the max-norm of the difference of
+    ``y = [phi, psi, x_C, phi', psi', x_C']`` at t = 10 s.
+max_state_error
+    The same max-norm, maximised over the 2001 points of the common grid
+    ``t = 0, 0.01, ..., 20`` s (every run writes its state there through
+    ``t_eval``, so all are compared at the same times).
+max_constraint_error, max_velocity_constraint_error
+    ``max |f|`` of (32) and ``max |f'| = max |Phi_s s'|`` over the same grid.
+nfev
+    Right-hand-side evaluations of the run.
+cpu_s
+    The median over ``repeats`` runs of the process time of one 20 s run that
+    outputs the state at 10 s and 20 s only, so that output work is the same
+    for every entry.  The accuracy run (with the 2001-point grid) is a separate,
+    untimed run with the same steps.
+
+Reference
+---------
+The minimal-coordinate solution (:class:`~closedloop.formulations.Minimal`),
+DOP853, rtol = atol = 1e-13.  Its own accuracy is estimated by its distance
+to the rtol = atol = 1e-12 solution, recorded per case.
+
+Pruning (the full grid is too expensive to run blindly)
+-------------------------------------------------------
+Along each curve (one case, one entry, one method) the tolerances are taken
+from loose to tight, and the curve stops
+
+- after a run whose median CPU time exceeds ``time_cap_s`` (implicit methods
+  at tight tolerances), or
+- when error_t10 has not fallen below half of the curve's best error for
+  ``plateau`` tolerances in a row (the error has reached its floor).
+
+A failed run (its row records the message, with ``status`` "failed: ...")
+does not stop the curve: tighter tolerances may succeed.
+
+The row where a curve stopped says why, in ``curve_end``.  And every method
+runs in the main case (case 2, the full rotation the paper starts from); the
+other cases run ``other_case_methods`` only (DOP853, the explicit method of
+highest order), which keeps the default study under ten minutes on two cores.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import platform
+import statistics
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ClosedLoopError, InputError
+
+__all__ = [
+    "Entry", "study_entries", "StudySettings", "DEFAULT_SETTINGS", "QUICK_SETTINGS", "run_study",
+    "cheapest_choices", "performance_ratios", "best_row", "source_fingerprint", "residual_traces",
+    "work_precision_figure", "pareto_figure", "residual_figure", "format_table", "load_study", "BASELINE_KEY",
+]
+
+T_END = 20.0                   # s, the length of every run
+T_CHECK = 10.0                 # s, where error_t10 is measured
+GRID_POINTS = 2001             # the common output grid 0, 0.01, ..., 20 s
+REFERENCE_METHOD = "DOP853"
+REFERENCE_TOL = 1e-13
+REFERENCE_CHECK_TOL = 1e-12
+ACCURACY_LEVELS = (1e-2, 1e-4, 1e-6, 1e-8, 1e-10)
+PERFORMANCE_TARGET = 1e-8      # error_t10 at which the library is compared with the baseline
+STEP_RULE_DT = 0.05            # s: Delta t of the rule alpha = 1/dt, beta = sqrt(2)/dt (chapter 3 uses 0.1-0.02)
+BASELINE_KEY = "sympy"
+SOLVE_IVP_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
+#: solve_ivp's five, and the compiled DOP853 of scipy.integrate.ode (closedloop.ode_dop853).
+ALL_METHODS = SOLVE_IVP_METHODS + ("ode.dop853",)
+EXPLICIT_RK = ("RK45", "DOP853")
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One contestant of the study.
+
+    Attributes
+    ----------
+    key : str
+        Stable short name, the ``formulation`` field of a row.
+    label : str
+        Display name in tables and figures.
+    formulation : object or None
+        A closedloop formulation for :func:`closedloop.simulate`; None for the
+        sympy.physics.mechanics baseline.
+    methods : tuple of str
+        The solve_ivp methods it can run (the settings may select fewer).
+    """
+
+    key: str
+    label: str
+    formulation: object
+    methods: tuple = SOLVE_IVP_METHODS
+
+
+def study_entries():
+    """The contestants, in display order: a new formulation is one more line here."""
+    from .formulations import Augmented, Baumgarte, ClosedForm, Minimal, Orthogonal, baumgarte_from_step
+    from .projection import Projected
+
+    return (
+        Entry("augmented", "Augmented (12)", Augmented()),
+        Entry("baumgarte-5-5", "Baumgarte (5, 5)", Baumgarte(5, 5)),
+        Entry("baumgarte-10-10", "Baumgarte (10, 10)", Baumgarte(10, 10)),
+        Entry("baumgarte-step", f"Baumgarte 1/dt, dt = {STEP_RULE_DT:g} s", baumgarte_from_step(STEP_RULE_DT)),
+        Entry("orthogonal", "Orthogonal (26), (5, 5)", Orthogonal(5, 5)),
+        Entry("minimal", "Minimal", Minimal()),
+        Entry("projected", "Projected", Projected(), EXPLICIT_RK),
+        Entry("closed-form", "Closed form (26), (1, 1)", ClosedForm(1, 1), ("DOP853", "ode.dop853")),
+        Entry(BASELINE_KEY, "sympy.physics.mechanics", None),
+    )
+
+
+@dataclass(frozen=True)
+class StudySettings:
+    """What one study runs; recorded in the data file.
+
+    Attributes
+    ----------
+    quick : bool
+    cases : tuple of int
+    methods : tuple of str
+        The methods of the main case.
+    main_case : int
+    other_case_methods : tuple of str
+        The methods of the other cases.
+    rtols : tuple of float
+        From loose to tight; ``atol = rtol``.
+    repeats : int
+        Timed runs per row; cpu_s is their median.
+    time_cap_s : float
+        A curve stops after a row whose cpu_s exceeds this.
+    plateau : int
+        A curve stops after this many rows in a row without halving its best error.
+    """
+
+    quick: bool = False
+    cases: tuple = (1, 2, 3, 4)
+    methods: tuple = ALL_METHODS
+    main_case: int = 2
+    other_case_methods: tuple = ("DOP853", "ode.dop853")
+    rtols: tuple = tuple(10.0 ** -k for k in range(3, 13))
+    repeats: int = 5
+    time_cap_s: float = 0.25
+    plateau: int = 2
+    t_end: float = T_END
+    t_check: float = T_CHECK
+    grid_points: int = GRID_POINTS
+    reference: str = f"minimal, {REFERENCE_METHOD}, rtol = atol = {REFERENCE_TOL:g}"
+
+    def methods_of(self, case):
+        """The methods run in ``case``."""
+        return self.methods if case == self.main_case else self.other_case_methods
+
+    def as_dict(self):
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
+
+
+DEFAULT_SETTINGS = StudySettings()
+#: The quick study: case 2 only, DOP853 only, three tolerances, one repeat (well under a minute).
+QUICK_SETTINGS = StudySettings(quick=True, cases=(2,), methods=("DOP853", "ode.dop853"), other_case_methods=(),
+                               rtols=(1e-3, 1e-6, 1e-9), repeats=1, time_cap_s=0.5)
+
+
+# -- provenance ------------------------------------------------------------------------------
+#: Modules of the package that cannot change a number of the study (output and examples only).
+_NOT_IN_FINGERPRINT = ("cli.py", "plotting.py", "examples.py")
+
+
+def source_fingerprint():
+    """sha256 of the library's sources that can change the study's numbers.
+
+    Every ``closedloop/*.py`` except :data:`_NOT_IN_FINGERPRINT`, in name order,
+    each as its name and its bytes; so a new module counts too.
+    """
+    digest = hashlib.sha256()
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        if path.name in _NOT_IN_FINGERPRINT:
+            continue
+        digest.update(path.name.encode() + b"\0" + path.read_bytes().replace(b"\r\n", b"\n") + b"\0")
+    return digest.hexdigest()
+
+
+def _provenance(settings):
+    import numpy
+    import scipy
+    import sympy
+
+    from . import __version__
+
+    return {
+        "closedloop_version": __version__,
+        "source_fingerprint": source_fingerprint(),
+        "settings": settings.as_dict(),
+        "machine": {"platform": platform.platform(), "machine": platform.machine(),
+                    "cpu_count": os.cpu_count(), "python": sys.version.split()[0],
+                    "numpy": numpy.__version__, "scipy": scipy.__version__, "sympy": sympy.__version__},
+    }
+
+
+# -- running ---------------------------------------------------------------------------------
+@dataclass
+class _Context:
+    """What every run of one case shares."""
+
+    system: object
+    baseline: object
+    state: object
+    grid: np.ndarray
+    check_index: int
+    reference: np.ndarray           # 6 x GRID_POINTS
+
+
+def _run(entry, context, method, rtol, t_eval, residuals=False):
+    """One run: ``(t, y (6 x N), nfev)``, and ``(|f|, |f'|)`` at the output times if asked."""
+    if entry.formulation is None:
+        res = context.baseline.simulate(context.state, T_END, method, rtol, rtol, t_eval=t_eval)
+        y = np.vstack((res.s, res.sd))
+        norms = _residuals(context.system, y) if residuals else None
+    else:
+        from .simulation import simulate
+
+        res = simulate(context.system, context.state, T_END, formulation=entry.formulation, method=method,
+                       rtol=rtol, atol=rtol, t_eval=t_eval)
+        y = np.vstack((res.s, res.sd))
+        norms = (res.constraint_error, res.velocity_constraint_error)     # simulate computed them
+    return (res.t, y, res.nfev, norms) if residuals else (res.t, y, res.nfev)
+
+
+def _residuals(system, y):
+    """``(|f|, |f'|)`` of (32) and (9) at every column of y (6 x N)."""
+    f_norm, fd_norm = np.empty(y.shape[1]), np.empty(y.shape[1])
+    for k in range(y.shape[1]):
+        f, Phi = system.constraints_and_jacobian(y[:3, k])
+        f_norm[k], fd_norm[k] = np.linalg.norm(f), np.linalg.norm(Phi @ y[3:, k])
+    return f_norm, fd_norm
+
+
+def _measure(entry, context, case, method, rtol, repeats):
+    """One row of the study."""
+    row = {"case": case, "formulation": entry.key, "label": entry.label, "method": method, "rtol": rtol,
+           "atol": rtol, "repeats": repeats}
+    try:
+        t, y, nfev, (f_norm, fd_norm) = _run(entry, context, method, rtol, context.grid, residuals=True)
+        if t.size != context.grid.size:
+            raise ClosedLoopError(f"the run stopped at t = {t[-1]:.6g} s")
+        cpu = []
+        for _ in range(repeats):
+            start = time.process_time()
+            _run(entry, context, method, rtol, (T_CHECK, T_END))
+            cpu.append(time.process_time() - start)
+    except ClosedLoopError as error:
+        row.update(status=f"failed: {error}", cpu_s=None, cpu_repeats_s=[], nfev=None, error_t10=None,
+                   max_state_error=None, max_constraint_error=None, max_velocity_constraint_error=None)
+        return row
+    difference = np.abs(y - context.reference)
+    row.update(status="ok", cpu_s=statistics.median(cpu), cpu_repeats_s=cpu, nfev=int(nfev),
+               error_t10=float(difference[:, context.check_index].max()),
+               max_state_error=float(difference.max()),
+               max_constraint_error=float(f_norm.max()), max_velocity_constraint_error=float(fd_norm.max()))
+    return row
+
+
+def _curve(entry, context, case, method, settings):
+    """The rows of one curve, loose to tight, with the pruning rules of the module docstring."""
+    rows, best, flat = [], math.inf, 0
+    for rtol in settings.rtols:
+        row = _measure(entry, context, case, method, rtol, settings.repeats)
+        rows.append(row)
+        if row["status"] != "ok":
+            continue
+        flat = flat + 1 if row["error_t10"] >= 0.5 * best else 0
+        best = min(best, row["error_t10"])
+        if row["cpu_s"] > settings.time_cap_s:
+            row["curve_end"] = f"time cap: cpu_s > {settings.time_cap_s:g} s"
+            break
+        if flat >= settings.plateau:
+            row["curve_end"] = f"error plateau: not halved for {settings.plateau} tolerances"
+            break
+    else:
+        rows[-1]["curve_end"] = "tightest rtol"
+    return rows
+
+
+def _reference(system, state, grid, check_index):
+    """The reference on the grid and its agreement with the rtol = 1e-12 solution."""
+    from .formulations import Minimal
+    from .simulation import simulate
+
+    runs = {}
+    for tol in (REFERENCE_TOL, REFERENCE_CHECK_TOL):
+        res = simulate(system, state, T_END, formulation=Minimal(), method=REFERENCE_METHOD, rtol=tol, atol=tol,
+                       t_eval=grid)
+        runs[tol] = (np.vstack((res.s, res.sd)), res.cpu_time)
+    difference = np.abs(runs[REFERENCE_TOL][0] - runs[REFERENCE_CHECK_TOL][0])
+    check = {"agreement_t10": float(difference[:, check_index].max()),
+             "agreement_max": float(difference.max()), "cpu_s": runs[REFERENCE_TOL][1]}
+    return runs[REFERENCE_TOL][0], check
+
+
+def run_study(settings=DEFAULT_SETTINGS, entries=None, progress=None):
+    """Run the study; returns the JSON-ready dict (provenance, references, rows).
+
+    Parameters
+    ----------
+    settings : StudySettings
+    entries : sequence of Entry, optional
+        Default :func:`study_entries`.
+    progress : callable, optional
+        ``progress(text)`` after each curve (the CLI prints it to stderr).
+
+    Returns
+    -------
+    dict
+        ``closedloop_version``, ``source_fingerprint``, ``settings``, ``machine``,
+        ``baseline_derivation_cpu_s``, ``references`` (per case: the reference's
+        agreement with the rtol = 1e-12 solution), ``wall_s`` and ``rows``, the
+        list of rows described in the module docstring.
+    """
+    from .baseline import LagrangesBaseline
+    from .simulation import SOLVER_METHODS
+    from .slider_crank import get_case, initial_state, slider_crank_system
+
+    for method in settings.methods + settings.other_case_methods:
+        if method not in SOLVER_METHODS:
+            raise InputError(f"methods: unknown {method!r}; choose from {', '.join(SOLVER_METHODS)}")
+    for case in settings.cases:
+        get_case(case)
+    wall = time.perf_counter()
+    entries = study_entries() if entries is None else tuple(entries)
+    system = slider_crank_system()
+    baseline = LagrangesBaseline(system.parameters, system.reading)
+    grid = np.linspace(0.0, T_END, settings.grid_points)
+    check_index = int(np.argmin(np.abs(grid - T_CHECK)))
+    data = _provenance(settings)
+    data.update(baseline_derivation_cpu_s=baseline.derivation_cpu_time, references={}, rows=[])
+    for case in settings.cases:
+        number = get_case(case)
+        state = initial_state(system, number.phi0, number.dphi0)
+        reference, check = _reference(system, state, grid, check_index)
+        data["references"][str(case)] = check
+        context = _Context(system, baseline, state, grid, check_index, reference)
+        for entry in entries:
+            for method in (m for m in settings.methods_of(case) if m in entry.methods):
+                rows = _curve(entry, context, case, method, settings)
+                data["rows"].extend(rows)
+                if progress is not None:
+                    progress(f"case {case}: {entry.label}, {method}: {len(rows)} rows, "
+                             f"{rows[-1].get('curve_end')}")
+    data["wall_s"] = time.perf_counter() - wall
+    return data
+
+
+# -- reading the rows ------------------------------------------------------------------------
+def load_study(path):
+    """A study written by ``closedloop benchmark --json FILE``, checked for its parts.
+
+    Returns the dict of :func:`run_study`, with one more key, ``"current"``: True
+    when its ``source_fingerprint`` is that of the library now imported.
+    """
+    import json
+
+    try:
+        with open(path, encoding="utf-8") as stream:
+            data = json.load(stream)
+    except (OSError, ValueError) as error:
+        raise InputError(f"path: cannot read a study from {str(path)!r}: {error}") from None
+    missing = {"closedloop_version", "source_fingerprint", "settings", "machine", "references", "rows"} - set(data)
+    if missing:
+        raise InputError(f"path: {str(path)!r} lacks {sorted(missing)}; write it with closedloop benchmark --json")
+    data["current"] = data["source_fingerprint"] == source_fingerprint()
+    return data
+
+
+def best_row(rows, level, library=None):
+    """The row with the lowest cpu_s among those with error_t10 <= level, or None.
+
+    ``library=True`` keeps only the library's rows, ``False`` only the baseline's.
+    """
+    met = [r for r in rows if r["status"] == "ok" and r["error_t10"] <= level
+           and (library is None or (r["formulation"] != BASELINE_KEY) == library)]
+    return min(met, key=lambda r: r["cpu_s"]) if met else None
+
+
+def cheapest_choices(rows, levels=ACCURACY_LEVELS):
+    """Per case and accuracy level: the cheapest row overall and the baseline's cheapest.
+
+    Returns a list of dicts ``case, level, best (row or None), baseline (row or None)``.
+    """
+    table = []
+    for case in sorted({r["case"] for r in rows}):
+        of_case = [r for r in rows if r["case"] == case]
+        for level in levels:
+            table.append({"case": case, "level": level, "best": best_row(of_case, level),
+                          "baseline": best_row(of_case, level, library=False)})
+    return table
+
+
+def performance_ratios(rows, target=PERFORMANCE_TARGET):
+    """Per case: baseline cpu_s / library cpu_s, each the cheapest row with error_t10 <= target.
+
+    Returns a dict ``case -> {"library": row, "baseline": row, "ratio": float or None}``;
+    ratio > 1 means the library's best is faster.
+    """
+    ratios = {}
+    for case in sorted({r["case"] for r in rows}):
+        of_case = [r for r in rows if r["case"] == case]
+        lib, base = best_row(of_case, target, library=True), best_row(of_case, target, library=False)
+        ratio = base["cpu_s"] / lib["cpu_s"] if lib is not None and base is not None else None
+        ratios[case] = {"library": lib, "baseline": base, "ratio": ratio}
+    return ratios
+
+
+def _describe(row):
+    return "-" if row is None else f"{row['label']}, {row['method']}, rtol {row['rtol']:.0e}"
+
+
+def format_table(data):
+    """The text the CLI prints: references, the cheapest choices, the performance ratio."""
+    lines = [f"closedloop {data['closedloop_version']} benchmark "
+             f"({'quick' if data['settings']['quick'] else 'default'} settings), "
+             f"{len(data['rows'])} rows, wall time {data['wall_s']:.0f} s",
+             f"reference: {data['settings']['reference']}; agreement with rtol = 1e-12 at t = 10 s:"]
+    lines += [f"  case {case}: {check['agreement_t10']:.1e} (max over 0-20 s: {check['agreement_max']:.1e})"
+              for case, check in data["references"].items()]
+    lines += ["", "Cheapest choice per accuracy level (error at t = 10 s <= level; CPU = median process time)"]
+    header = f"{'case':>4}  {'level':>7}  {'cheapest':<52}  {'CPU [s]':>8}  {'baseline CPU':>12}  {'ratio':>6}"
+    lines += [header, "-" * len(header)]
+    for item in cheapest_choices(data["rows"]):
+        best, base = item["best"], item["baseline"]
+        cpu = f"{best['cpu_s']:.4f}" if best else "-"
+        base_cpu = f"{base['cpu_s']:.4f}" if base else "-"
+        ratio = f"{base['cpu_s'] / best['cpu_s']:.2f}" if best and base else "-"
+        lines.append(f"{item['case']:>4}  {item['level']:>7.0e}  {_describe(best):<52}  {cpu:>8}  "
+                     f"{base_cpu:>12}  {ratio:>6}")
+    lines += ["", f"Performance at error_t10 <= {PERFORMANCE_TARGET:.0e}: baseline CPU / best library CPU "
+                  "(> 1: the library is faster)"]
+    for case, item in performance_ratios(data["rows"]).items():
+        ratio = "-" if item["ratio"] is None else f"{item['ratio']:.2f}"
+        lines.append(f"  case {case}: {ratio}   library: {_describe(item['library'])};  "
+                     f"baseline: {_describe(item['baseline'])}")
+    return "\n".join(lines)
+
+
+# -- figures ---------------------------------------------------------------------------------
+def _colours(labels):
+    from matplotlib import colormaps
+
+    palette = colormaps["tab10"]
+    return {label: palette(k % 10) for k, label in enumerate(labels)}
+
+
+def _log_axes(ax):
+    """Grid lines at the decades, and no labels at the minor ticks (they collide on short axes)."""
+    from matplotlib.ticker import NullFormatter
+
+    ax.grid(True, which="major", lw=0.3)
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.yaxis.set_minor_formatter(NullFormatter())
+
+
+def work_precision_figure(rows, case, entries=None):
+    """Error at t = 10 s against CPU time, log-log: one panel per method, one curve per formulation."""
+    from matplotlib.figure import Figure
+
+    labels = [e.label for e in (study_entries() if entries is None else entries)]
+    colours = _colours(labels)
+    ok = [r for r in rows if r["case"] == case and r["status"] == "ok"]
+    methods = [m for m in ALL_METHODS if any(r["method"] == m for r in ok)]
+    fig = Figure(figsize=(max(6.5, 3.2 * len(methods)), 3.8), layout="constrained")
+    axes = fig.subplots(1, len(methods), sharex=True, sharey=True, squeeze=False)[0]
+    for ax, method in zip(axes, methods):
+        for label in labels:
+            curve = [r for r in ok if r["method"] == method and r["label"] == label]
+            if curve:
+                ax.loglog([r["cpu_s"] for r in curve], [max(r["error_t10"], 1e-16) for r in curve], "o-",
+                          ms=3, lw=1.2, color=colours[label], label=label)
+        ax.axhline(PERFORMANCE_TARGET, color="0.6", lw=0.8, ls=":")
+        ax.set_title(method)
+        ax.set_xlabel("CPU time [s]")
+        _log_axes(ax)
+    axes[0].set_ylabel("error at t = 10 s")
+    handles, names = axes[0].get_legend_handles_labels()
+    for ax in axes[1:]:
+        for h, n in zip(*ax.get_legend_handles_labels()):
+            if n not in names:
+                handles.append(h)
+                names.append(n)
+    fig.legend(handles, names, loc="outside lower center", ncol=4, fontsize=8)
+    fig.suptitle(f"Case {case}: work-precision, one curve per formulation and method")
+    return fig
+
+
+def _pareto(points):
+    """The points not beaten in both CPU and error, sorted by CPU."""
+    front, best = [], math.inf
+    for cpu, error in sorted(points):
+        if error < best:
+            front.append((cpu, error))
+            best = error
+    return front
+
+
+def pareto_figure(rows, entries=None):
+    """Per case, each formulation's best over all methods (its lower-left envelope), log-log."""
+    from matplotlib.figure import Figure
+
+    labels = [e.label for e in (study_entries() if entries is None else entries)]
+    colours = _colours(labels)
+    cases = sorted({r["case"] for r in rows})
+    columns = min(2, len(cases))
+    fig = Figure(figsize=(5.2 * columns, 3.6 * math.ceil(len(cases) / columns) + 0.6), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(math.ceil(len(cases) / columns), columns, sharex=True, sharey=True,
+                                      squeeze=False)).ravel()
+    for ax, case in zip(axes, cases):
+        for label in labels:
+            points = [(r["cpu_s"], max(r["error_t10"], 1e-16)) for r in rows
+                      if r["case"] == case and r["label"] == label and r["status"] == "ok"]
+            if points:
+                front = _pareto(points)
+                ax.loglog(*zip(*front), "o-", ms=3, lw=1.2, color=colours[label], label=label)
+        ax.axhline(PERFORMANCE_TARGET, color="0.6", lw=0.8, ls=":")
+        ax.set_title(f"case {case}")
+        ax.set_xlabel("CPU time [s]")
+        ax.set_ylabel("error at t = 10 s")
+        _log_axes(ax)
+    for ax in axes[len(cases):]:
+        ax.set_visible(False)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=4, fontsize=8)
+    return fig
+
+
+def residual_traces(case=2, method="DOP853", rtol=1e-6, keys=("augmented", "baumgarte-5-5", "orthogonal",
+                                                                 "minimal", "projected", BASELINE_KEY)):
+    """|f| and |f'| against time on the common grid for the main formulations, one method and rtol.
+
+    Returns a dict ``label -> (t, |f|, |f'|)``.
+    """
+    from .baseline import LagrangesBaseline
+    from .slider_crank import get_case, initial_state, slider_crank_system
+
+    system = slider_crank_system()
+    number = get_case(case)
+    state = initial_state(system, number.phi0, number.dphi0)
+    grid = np.linspace(0.0, T_END, GRID_POINTS)
+    entries = {e.key: e for e in study_entries()}
+    unknown = [k for k in keys if k not in entries]
+    if unknown:
+        raise InputError(f"keys: unknown {unknown}; choose from {', '.join(entries)}")
+    baseline = LagrangesBaseline(system.parameters, system.reading) if BASELINE_KEY in keys else None
+    context = _Context(system, baseline, state, grid, 0, None)
+    traces = {}
+    for key in keys:
+        t, _, _, norms = _run(entries[key], context, method, rtol, grid, residuals=True)
+        traces[entries[key].label] = (t, *norms)
+    return traces
+
+
+def residual_figure(traces, title=None):
+    """|f| of (32) and |f'| = |Phi_s s'| against time, one curve per formulation (semilog)."""
+    from matplotlib.figure import Figure
+
+    colours = _colours([e.label for e in study_entries()])
+    fig = Figure(figsize=(10, 3.8), layout="constrained")
+    axes = fig.subplots(1, 2, sharex=True)
+    for k, (label, (t, f_norm, fd_norm)) in enumerate(traces.items()):
+        for ax, values in zip(axes, (f_norm, fd_norm)):
+            ax.semilogy(t, np.maximum(values, 1e-17), lw=1.0, color=colours.get(label), label=label,
+                        ls=("-", "--", ":")[k % 3])       # curves that coincide stay visible
+    axes[0].set_ylabel(r"$|\mathbf{f}|$ [m]")
+    axes[1].set_ylabel(r"$|\dot{\mathbf{f}}|$ [m/s]")
+    for ax in axes:
+        ax.set_xlabel("t [s]")
+        ax.set_ylim(1e-17, None)
+        ax.grid(True, which="major", lw=0.3)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=6, fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return fig

@@ -1,0 +1,140 @@
+"""closedloop benchmark: the quick study through the CLI, its rows, and the tables read from rows.
+
+The quick study runs once for the whole module (case 2, DOP853, four tolerances, one repeat).
+No test here asserts a speed: timings on a shared machine are noise. The speed-up is printed
+by the command itself.
+"""
+
+import contextlib
+import io
+import json
+import re
+
+import pytest
+
+from closedloop.benchmark import (BASELINE_KEY, QUICK_SETTINGS, cheapest_choices, performance_ratios,
+                                  source_fingerprint, study_entries)
+from closedloop.cli import main
+
+REQUIRED = ("case", "formulation", "method", "rtol", "cpu_s", "error_t10", "max_constraint_error", "nfev")
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("benchmark")
+    path = folder / "rows.json"
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        status = main(["benchmark", "--quick", "--json", str(path), "--figures", str(folder / "figures")])
+    assert status == 0, err.getvalue()
+    return json.loads(path.read_text()), out.getvalue(), folder / "figures"
+
+
+def curve(data, key, method="DOP853"):
+    rows = [r for r in data["rows"] if r["formulation"] == key and r["method"] == method]
+    return {r["rtol"]: r for r in rows}
+
+
+def test_rows_have_the_promised_fields_and_cover_the_grid(quick):
+    data, _, _ = quick
+    assert data["rows"]
+    for row in data["rows"]:
+        for key in REQUIRED:
+            assert key in row, key
+        # a run may fail (Minimal at rtol 1e-3 meets its branch guard); it says when, and why
+        assert row["status"] == "ok" or re.match(r"failed: .*at t = [0-9.]+ s", row["status"]), row["status"]
+        assert row["status"] == "ok" or row["rtol"] > 1e-6
+        assert row["case"] == 2 and row["method"] in QUICK_SETTINGS.methods and row["atol"] == row["rtol"]
+    assert {r["formulation"] for r in data["rows"]} == {e.key for e in study_entries()}
+    # every curve ends exactly once, and says why
+    for entry in study_entries():
+        for method in QUICK_SETTINGS.methods:
+            rows = [r for r in data["rows"] if r["formulation"] == entry.key and r["method"] == method]
+            if not rows:
+                assert method not in entry.methods
+                continue
+            assert [("curve_end" in r) for r in rows] == [False] * (len(rows) - 1) + [True]
+            assert [r["rtol"] for r in rows] == list(QUICK_SETTINGS.rtols[:len(rows)])
+
+
+def test_the_file_records_what_made_it(quick):
+    data, _, _ = quick
+    from closedloop import __version__
+
+    assert data["closedloop_version"] == __version__
+    assert data["source_fingerprint"] == source_fingerprint()
+    assert data["settings"] == QUICK_SETTINGS.as_dict() and data["settings"]["quick"] is True
+    assert data["machine"]["cpu_count"] >= 1
+
+
+def test_the_reference_has_converged(quick):
+    data, _, _ = quick
+    check = data["references"]["2"]
+    # rtol 1e-13 against 1e-12: far below the 1e-8 of the performance target
+    assert check["agreement_t10"] < 1e-9 and check["agreement_max"] < 1e-8
+
+
+@pytest.mark.parametrize("key", ["augmented", "minimal", "projected", "baumgarte-5-5"])
+def test_errors_fall_with_rtol_for_convergent_formulations(quick, key):
+    rows = curve(quick[0], key)
+    errors = [rows[tol]["error_t10"] for tol in (1e-3, 1e-6, 1e-9) if rows[tol]["status"] == "ok"]
+    assert len(errors) >= 2 and all(b < a / 10 for a, b in zip(errors, errors[1:]))
+    assert rows[1e-9]["max_state_error"] >= rows[1e-9]["error_t10"]
+
+
+def test_constraint_errors_tell_the_formulations_apart(quick):
+    data, _, _ = quick
+    for key in ("minimal", "projected"):       # on the manifold to Newton's tolerance at every grid point
+        assert max(r["max_constraint_error"] for r in curve(data, key).values() if r["status"] == "ok") < 1e-13
+    assert curve(data, "augmented")[1e-3]["max_constraint_error"] > 1e-4   # drift (13) at a loose tolerance
+    assert curve(data, BASELINE_KEY)[1e-3]["max_constraint_error"] > 1e-4  # the baseline is (12) too
+
+
+def test_the_sympy_baseline_is_the_same_mechanism(quick):
+    """sympy.physics.mechanics' equations, derived independently, converge to the library's reference."""
+    rows = curve(quick[0], BASELINE_KEY)
+    assert rows[1e-6]["error_t10"] < 1e-3
+    assert rows[1e-9]["error_t10"] < rows[1e-6]["error_t10"] / 100
+    assert rows[1e-9]["max_state_error"] < 1e-5
+    library = curve(quick[0], "augmented")
+    # same equations (12), same method and tolerance: errors of the same size
+    assert 0.1 < rows[1e-9]["error_t10"] / library[1e-9]["error_t10"] < 10
+
+
+def test_the_command_prints_the_tables_and_writes_the_figures(quick):
+    _, text, figures = quick
+    assert "Cheapest choice per accuracy level" in text
+    assert "case 2:" in text and "baseline CPU / best library CPU" in text
+    names = sorted(p.name for p in figures.iterdir())
+    assert names == ["best_per_formulation.png", "residuals_case2.png", "work_precision_case2.png"]
+    assert all((figures / n).read_bytes()[:4] == b"\x89PNG" for n in names)
+
+
+def fake(case, key, cpu, error):
+    return {"case": case, "formulation": key, "label": key, "method": "RK45", "rtol": 1e-6, "status": "ok",
+            "cpu_s": cpu, "error_t10": error}
+
+
+def test_cheapest_choice_and_ratio_from_rows():
+    rows = [fake(1, "augmented", 0.10, 1e-9), fake(1, "minimal", 0.05, 1e-7), fake(1, "projected", 0.20, 1e-11),
+            fake(1, BASELINE_KEY, 0.30, 1e-9), fake(1, BASELINE_KEY, 0.04, 1e-3),
+            fake(2, "augmented", 0.10, 1e-5), fake(2, BASELINE_KEY, 0.50, 1e-9)]
+    table = {(t["case"], t["level"]): t for t in cheapest_choices(rows, levels=(1e-2, 1e-8, 1e-10))}
+    assert table[1, 1e-2]["best"]["formulation"] == BASELINE_KEY          # cheapest overall, whoever it is
+    assert table[1, 1e-8]["best"]["formulation"] == "augmented"
+    assert table[1, 1e-10]["best"]["formulation"] == "projected" and table[1, 1e-10]["baseline"] is None
+    ratios = performance_ratios(rows, target=1e-8)
+    assert ratios[1]["ratio"] == pytest.approx(0.30 / 0.10)
+    assert ratios[2]["ratio"] is None and ratios[2]["library"] is None
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--json", "/no/such/folder/rows.json"], "json: the folder of"),
+    (["--figures", __file__], "figures: .* is not a folder"),
+    (["--repeats", "3"], "unrecognized arguments"),
+])
+def test_bad_input_is_one_line_and_exit_2(capsys, args, message):
+    assert main(["benchmark", "--quick", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("closedloop: error:")
+    assert re.search(message, err)
