@@ -489,10 +489,8 @@ class _Run:
             "or check the force for chattering"
         )
 
-    def _segment(self, t0, s0, sd0, mode):
-        """Integrate on one branch until t_end or the next switch."""
-        if self.method == ode_dop853.METHOD:
-            return self._compiled_segment(t0, s0, sd0, mode)
+    def _start(self, s0, sd0, mode):
+        """``(y0, unpack, rhs)`` of a segment on branch ``mode``, with the work state if asked for."""
         system, formulation = self.system, self.formulation
         y0 = formulation.pack(system, s0, sd0)
         unpack = formulation.unpacker(system)
@@ -500,6 +498,14 @@ class _Run:
         rhs = formulation.make_rhs(system, mode, unpack)
         if self.track_work:                         # one more state: W' = tau . s'
             y0, rhs, unpack = self._with_work(y0, rhs, unpack, mode)
+        return y0, unpack, rhs
+
+    def _segment(self, t0, s0, sd0, mode):
+        """Integrate on one branch until t_end or the next switch."""
+        if self.method == ode_dop853.METHOD:
+            return self._compiled_segment(t0, s0, sd0, mode)
+        system, formulation = self.system, self.formulation
+        y0, unpack, rhs = self._start(s0, sd0, mode)
         events = []
         for i in range(len(self.names)):
             events.append(self._event(unpack, i, mode[i]))
@@ -671,12 +677,7 @@ class _Run:
     def _compiled_segment(self, t0, s0, sd0, mode):
         """_segment with the compiled DOP853 of scipy.integrate.ode (see closedloop.ode_dop853)."""
         system, formulation = self.system, self.formulation
-        y0 = formulation.pack(system, s0, sd0)
-        unpack = formulation.unpacker(system)
-        unpack.seed(s0)
-        rhs = formulation.make_rhs(system, mode, unpack)
-        if self.track_work:                         # one more state: W' = tau . s'
-            y0, rhs, unpack = self._with_work(y0, rhs, unpack, mode)
+        y0, unpack, rhs = self._start(s0, sd0, mode)
         h = self.force.switching_functions if self.names else None
         stop_when = self.stop_when
 
