@@ -140,10 +140,6 @@ class DerivedModel:
         ``constraint_functions(s, p) -> flat list`` of f and Phi_s, likewise.
     energies : callable
         ``energies(s, sd, p) -> [T, Pi]``, numpy: it takes whole trajectories.
-    constraint_arrays : callable
-        ``constraint_arrays(s, p) -> list`` of f and Phi_s entries, numpy: for
-        ``s`` of shape (n, N) each entry is an array of N values (or a scalar
-        where the entry is constant).
     """
 
     model: MultibodyModel
@@ -155,7 +151,6 @@ class DerivedModel:
     dynamics: Callable
     constraint_functions: Callable
     energies: Callable
-    constraint_arrays: Callable
 
     def equations_of_motion(self, accelerations, multipliers) -> sp.Matrix:
         """Residual of (5) as sympy expressions: ``M s'' + Phi_s^T lambda - p1``.
@@ -212,9 +207,7 @@ def derive(model: MultibodyModel) -> DerivedModel:
     dynamics = sp.lambdify(args, flat, modules="math", cse=True)
     constraint_functions = sp.lambdify(args[1:2] + args[3:], [*f, *Phi], modules="math", cse=True)
     energies = sp.lambdify(args[1:], [T, Pi], modules="numpy", cse=True)
-    constraint_arrays = sp.lambdify(args[1:2] + args[3:], [*f, *Phi], modules="numpy", cse=True)
-    return DerivedModel(model, M, p1, f, Phi, gamma, dynamics, constraint_functions, energies,
-                        constraint_arrays)
+    return DerivedModel(model, M, p1, f, Phi, gamma, dynamics, constraint_functions, energies)
 
 
 @lru_cache(maxsize=None)
@@ -377,12 +370,7 @@ class System:
 
     def constraint_errors(self, s, sd):
         """``(|f|, |Phi_s s'|)`` of (32) and (9) at every column of ``s``, ``sd`` (n x N)."""
-        s, sd = np.asarray(s, dtype=float), np.asarray(sd, dtype=float)
-        size = s.shape[1]
-        entries = [np.broadcast_to(np.asarray(v, dtype=float), (size,))
-                   for v in self.derived.constraint_arrays(s, self.parameter_values)]
-        f = np.array(entries[: self.r])
-        Phi = np.array(entries[self.r:]).reshape(self.r, self.n, size)
+        f, Phi = self.constraints_and_jacobian_many(np.asarray(s, dtype=float))
         velocity = np.einsum("ijk,jk->ik", Phi, sd)
         return np.sqrt(np.sum(f * f, axis=0)), np.sqrt(np.sum(velocity * velocity, axis=0))
 

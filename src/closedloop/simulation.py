@@ -597,11 +597,7 @@ class _Run:
         a step that jumps across such a point has left the configurations R describes.
         """
         system = self.system
-        n, r = system.n, system.r
-        s = segment.step_ends[:n]
-        entries = [np.broadcast_to(np.asarray(v, dtype=float), (s.shape[1],))
-                   for v in system.derived.constraint_arrays(s, system.parameter_values)]
-        Phi = np.array(entries[r:]).reshape(r, n, s.shape[1])
+        Phi = system.constraints_and_jacobian_many(segment.step_ends[:system.n])[1]
         det = np.linalg.det(np.moveaxis(Phi[:, system.z_index], 2, 0))
         flips = np.nonzero(np.sign(det[1:]) * np.sign(det[:-1]) < 0)[0]
         if flips.size:
