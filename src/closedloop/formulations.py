@@ -205,6 +205,44 @@ class Minimal:
         f, qi, zi = system.f, system.q_index, system.z_index
         last = {"y": None, "s": None, "R": None, "side": None}
 
+        def solve(q, s_from, R_from, t):
+            guess = s_from[zi] if R_from is None else s_from[zi] + R_from[zi] @ (q - s_from[qi])
+            s, Phi = solve_dependent(system, q, guess, t, return_jacobian=True)
+            return s, Phi, np.sign(np.linalg.det(Phi[:, zi]))
+
+        def solve_on_branch(q, t):
+            # One Newton solve from the first-order prediction.  A long step (a fast crank) can
+            # carry that prediction into the basin of another assembly branch although Phi_z is
+            # well conditioned all the way; then follow q from the last solution in small steps
+            # (continuation).  A real dead position of q is crossed by every path, so the caller's
+            # branch check still catches it.
+            try:
+                found = solve(q, last["s"], last["R"], t)
+                if found[2] == last["side"]:
+                    return found
+            except (ConvergenceError, SingularConfigurationError):
+                if last["R"] is None:
+                    raise
+                found = None
+            for pieces in CONTINUATION_PIECES:
+                try:
+                    found = follow(q, pieces, t)
+                except (ConvergenceError, SingularConfigurationError):
+                    continue
+                if found[2] == last["side"]:
+                    return found
+            if found is None:
+                return solve(q, last["s"], last["R"], t)  # raises the direct solve's error
+            return found
+
+        def follow(q, pieces, t):
+            s_now, R_now = last["s"], last["R"]
+            for k in range(pieces):
+                q_k = s_now[qi] + (q - s_now[qi]) / (pieces - k)
+                s_now, Phi, side = solve(q_k, s_now, R_now, t)
+                R_now = _orthogonal_complement(Phi, qi, zi, t)
+            return s_now, Phi, side
+
         def unpack(y, t=None):
             s, R = unpack_with_R(y, t)
             return s, R @ y[f:]
@@ -212,19 +250,15 @@ class Minimal:
         def unpack_with_R(y, t=None):
             if last["y"] is not None and np.array_equal(y, last["y"]):
                 return last["s"], last["R"]
-            guess = last["s"][zi]
-            if last["R"] is not None:
-                guess = guess + last["R"][zi] @ (y[:f] - last["s"][qi])
             try:
-                s, Phi = solve_dependent(system, y[:f], guess, t, return_jacobian=True)
-                R = _orthogonal_complement(Phi, qi, zi, t)
+                s, Phi, side = solve_on_branch(y[:f], t)
             except (ConvergenceError, SingularConfigurationError) as error:
                 raise SingularConfigurationError(
                     f"minimal coordinates failed{at_time(t)}: {error} [cond(Phi_z) was "
                     f"{condition_number(system.jacobian(last['s'])[:, zi]):.3g} at the last solved state]; "
                     "q can not pass a dead position of this partition: use the NullSpace formulation"
                 ) from None
-            side = np.sign(np.linalg.det(Phi[:, zi]))
+            R = _orthogonal_complement(Phi, qi, zi, t)
             if side != last["side"]:
                 raise SingularConfigurationError(
                     f"minimal coordinates left their assembly branch{at_time(t)}: det(Phi_z) changed sign "
@@ -270,6 +304,10 @@ class Minimal:
         qdd, R, c = self._qdd(system, t, s, sd, mode)
         return R @ qdd + c
 
+
+#: Numbers of equal pieces Minimal's Newton continuation tries, in turn, when a single Newton solve
+#: from the prediction lands on another assembly branch (see Minimal.unpacker).
+CONTINUATION_PIECES = (8, 64)
 
 #: sigma_min(Phi_s) / sigma_max(Phi_s) below which Phi_s counts as rank deficient.
 RANK_LIMIT = 1e-10
