@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from closedloop import (Baumgarte, ClosedLoopError, IntegrationError, InputError, Minimal, Orthogonal,
+from closedloop import (Baumgarte, IntegrationError, InputError, Minimal, Orthogonal,
                         SingularConfigurationError, simulate)
 from closedloop.fixed_step import (baumgarte_roots, rk4, rk4_baumgarte_growth, rk4_baumgarte_stable,
                                    rk4_real_axis_limit, rk4_stability_function, rk4_stability_map)
