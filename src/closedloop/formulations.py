@@ -260,12 +260,19 @@ class Minimal:
                 ) from None
             R = _orthogonal_complement(Phi, qi, zi, t)
             if side != last["side"]:
+                condition = condition_number(system.jacobian(last["s"])[:, zi])
+                if condition > WELL_CONDITIONED:
+                    why = ("so the path met a dead position of q, or Newton's z jumped to another branch near one; "
+                           "q alone can not pass it: use the NullSpace formulation (near a bifurcation, also "
+                           "tighten rtol and atol)")
+                else:
+                    why = (f"although Phi_z was well conditioned: a step moved q by "
+                           f"{np.abs(y[:f] - last['s'][qi]).max():.3g}, too far for Newton to follow even in "
+                           f"{CONTINUATION_PIECES[-1]} pieces, so the motion is too fast for the step; give a "
+                           "max_step, or use a formulation that does not solve for z (Orthogonal, NullSpace)")
                 raise SingularConfigurationError(
                     f"minimal coordinates left their assembly branch{at_time(t)}: det(Phi_z) changed sign "
-                    f"(cond(Phi_z) was {condition_number(system.jacobian(last['s'])[:, zi]):.3g} at the last "
-                    "state on the branch), so the path met a dead position of q, or Newton's z jumped to "
-                    "another branch near one; q alone can not pass it: use the NullSpace formulation "
-                    "(near a bifurcation, also tighten rtol and atol)"
+                    f"(cond(Phi_z) was {condition:.3g} at the last state on the branch), {why}"
                 )
             last.update(y=y.copy(), s=s, R=R)
             return s, R
@@ -308,6 +315,8 @@ class Minimal:
 #: Numbers of equal pieces Minimal's Newton continuation tries, in turn, when a single Newton solve
 #: from the prediction lands on another assembly branch (see Minimal.unpacker).
 CONTINUATION_PIECES = (8, 64)
+#: cond(Phi_z) below which a change of branch is blamed on a long step rather than a dead position.
+WELL_CONDITIONED = 1e3
 
 #: sigma_min(Phi_s) / sigma_max(Phi_s) below which Phi_s counts as rank deficient.
 RANK_LIMIT = 1e-10
