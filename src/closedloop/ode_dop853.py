@@ -213,56 +213,85 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                    np.array(ends).T)
 
 
+def _hermite_root(g0, g1, d0, d1):
+    """The first zero in [0, 1] of the cubic with values g0, g1 and slopes d0, d1 at 0 and 1.
+
+    ``g0`` and ``g1`` bracket zero (g0 != g1).  The cubic is sampled at eight
+    points first, so that of several zeros the earliest is taken, then the
+    bracket is refined with brentq.
+    """
+    def p(u):
+        v = 1.0 - u
+        return (1.0 + 2.0 * u) * v * v * g0 + u * v * v * d0 + u * u * (3.0 - 2.0 * u) * g1 - u * u * v * d1
+
+    if g0 == 0.0:
+        return 0.0
+    left, value = 0.0, g0
+    for k in range(1, 9):
+        right = k / 8.0
+        after = p(right) if k < 8 else g1
+        if after == 0.0:
+            return right
+        if (after > 0.0) != (value > 0.0):
+            return brentq(p, left, right, xtol=1e-13)
+        left, value = right, after
+    return 1.0               # only reached through round-off in the samples: take the step end
+
+
 def _locate(rhs, switching, state, directions, rtol, atol, failure):
-    """The first zero inside the step that stopped the code: ``(t, y, index)``."""
+    """The first zero inside the step that stopped the code: ``(t, y, index)``.
+
+    Each switching function g_i is approximated over the step by the cubic
+    Hermite interpolant of its values and its rates dg_i/dt at both ends (the
+    rates along the flow, by a forward difference), which costs two right-hand
+    sides and two more switching evaluations, and needs no interpolated states.
+    """
     ta, ya, ga = state["t"], state["y"], state["g"]
     tb, yb, gb = state["hit"]
     h = tb - ta
+    eps = 1e-7 * max(abs(h), 1e-9)
     fa, fb = np.asarray(rhs(ta, ya)), np.asarray(rhs(tb, yb))
-
-    def hermite(t):
-        u = (t - ta) / h
-        return ((1 + 2 * u) * (1 - u) ** 2 * ya + u * (1 - u) ** 2 * h * fa
-                + u * u * (3 - 2 * u) * yb + u * u * (u - 1) * h * fb)
-
+    rates_a = [(after - before) / eps for before, after in zip(ga, switching(ta + eps, ya + eps * fa))]
+    rates_b = [(after - before) / eps for before, after in zip(gb, switching(tb + eps, yb + eps * fb))]
     best = None
     for i, d in enumerate(directions):
         before, after = ga[i], gb[i]
         crossed = (before <= 0.0 <= after and d >= 0) or (before >= 0.0 >= after and d <= 0)
         if not crossed or before == after:
             continue
-        g = lambda t, i=i: switching(t, hermite(t))[i]                       # noqa: E731
-        if g(ta) == 0.0:
-            root = ta
-        elif (g(ta) > 0) == (g(tb) > 0):
-            root = tb                  # the interpolant misses the crossing: take the step end
-        else:
-            root = brentq(g, ta, tb, xtol=1e-9 * h)          # Newton below polishes it
+        root = ta + h * _hermite_root(before, after, h * rates_a[i], h * rates_b[i])
         if best is None or root < best[0]:
             best = (root, i)
     t_star, i = best
     # The state at the estimate, integrated (not interpolated), then Newton in time.
     t, y = t_star, _redo(rhs, ta, ya, t_star, rtol, atol) if t_star > ta else ya.copy()
+    rate, delta = None, math.inf
     for _ in range(8):
         if failure:
             break
         g = switching(t, y)[i]
         if g == 0.0:
             break
-        f = np.asarray(rhs(t, y))
-        eps = 1e-7 * max(abs(h), 1e-9)
-        rate = (switching(t + eps, y + eps * f)[i] - g) / eps
-        if rate == 0.0 or not math.isfinite(rate):
-            break
-        delta = -g / rate
-        if abs(delta) <= 4e-16 * max(1.0, abs(t)):
-            break
+        if abs(delta) <= 1e-5:              # after a short correction the last rate still serves
+            delta = -g / rate
+            if abs(delta) <= 4e-16 * max(1.0, abs(t)):
+                break
+            f = np.asarray(rhs(t, y))
+        else:                               # first, or after a redo: the rate at this t
+            f = np.asarray(rhs(t, y))
+            rate = (switching(t + eps, y + eps * f)[i] - g) / eps
+            if rate == 0.0 or not math.isfinite(rate):
+                break
+            delta = -g / rate
+            if abs(delta) <= 4e-16 * max(1.0, abs(t)):
+                break
         if abs(delta) <= 1e-5 and ta < t + delta:
             y = y + 0.5 * delta * (f + np.asarray(rhs(t + delta, y + delta * f)))   # Heun: O(delta^3)
             t = t + delta
         else:
             t = min(max(t + delta, ta), tb)
             y = _redo(rhs, ta, ya, t, rtol, atol)
+            delta = math.inf
     return t, y, i
 
 
