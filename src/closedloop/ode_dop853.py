@@ -131,15 +131,24 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     count = [0]
     failure = []
 
-    def counted(t, y):
-        count[0] += 1
-        try:
-            if count[0] > max_nfev:
-                raise BudgetExceeded(t)
-            return rhs(t, y)
-        except Exception as error:          # the compiled caller cannot propagate it: stop and re-raise
-            failure.append(error)
-            return [math.nan] * y.size
+    if max_nfev == math.inf:
+        def counted(t, y):
+            count[0] += 1
+            try:
+                return rhs(t, y)
+            except Exception as error:      # the compiled caller cannot propagate it: stop and re-raise
+                failure.append(error)
+                return [math.nan] * y.size
+    else:
+        def counted(t, y):
+            count[0] += 1
+            try:
+                if count[0] > max_nfev:
+                    raise BudgetExceeded(t)
+                return rhs(t, y)
+            except Exception as error:
+                failure.append(error)
+                return [math.nan] * y.size
 
     directions = tuple(float(d) for d in directions)
     start_values = list(switching(t0, y0))
@@ -153,16 +162,15 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         if t <= state["t"]:                  # the call at the start point
             return 0
         g = list(switching(t, y))
-        for i, (before, after) in enumerate(zip(state["g"], g)):
-            rising, falling = before <= 0.0 <= after, before >= 0.0 >= after
-            if (rising and directions[i] >= 0 and after != before) or \
-               (falling and directions[i] <= 0 and after != before):
+        for before, after, direction in zip(state["g"], g, directions):
+            if after != before and ((direction >= 0 and before <= 0.0 <= after) or
+                                    (direction <= 0 and before >= 0.0 >= after)):
                 state["hit"] = (t, y.copy(), g)
                 return -1
-        state["step"] = t - state["t"]
-        steps.append(state["step"])
+        state["step"] = step = t - state["t"]
+        steps.append(step)
         ends.append(y.copy())
-        state.update(t=t, y=y.copy(), g=g)
+        state["t"], state["y"], state["g"] = t, y.copy(), g
         if outputs is None:
             times.append(t)
             states.append(y.copy())

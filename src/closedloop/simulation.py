@@ -597,8 +597,13 @@ class _Run:
         a step that jumps across such a point has left the configurations R describes.
         """
         system = self.system
-        Phi = system.constraints_and_jacobian_many(segment.step_ends[:system.n])[1]
-        det = np.linalg.det(np.moveaxis(Phi[:, system.z_index], 2, 0))
+        Phi_z = system.constraints_and_jacobian_many(segment.step_ends[:system.n])[1][:, system.z_index]
+        if system.r == 1:
+            det = Phi_z[0, 0]
+        elif system.r == 2:            # written out: np.linalg.det costs more than the Jacobians here
+            det = Phi_z[0, 0] * Phi_z[1, 1] - Phi_z[0, 1] * Phi_z[1, 0]
+        else:
+            det = np.linalg.det(np.moveaxis(Phi_z, 2, 0))
         flips = np.nonzero(np.sign(det[1:]) * np.sign(det[:-1]) < 0)[0]
         if flips.size:
             times = np.concatenate(([t0], t0 + np.cumsum(segment.steps), [segment.t_stop]))
@@ -681,7 +686,8 @@ class _Run:
             if h is None and stop_when is None:
                 return ()
             s, sd = unpack(y, t)
-            values = list(h(t, s, sd)) if h is not None else []
+            values = h(t, s, sd) if h is not None else []
+            values = values.tolist() if isinstance(values, np.ndarray) else list(values)
             return values + [stop_when(t, s, sd)] if stop_when is not None else values
 
         directions = [-1.0 if on else 1.0 for on in mode[:len(self.names)]]
