@@ -110,3 +110,14 @@ def test_folded_functions_are_shared_by_branches_with_the_same_force_and_missing
     got = ClosedForm(1, 1).accelerations(plain, 0.5, s, sd, ())
     expected = augmented_accelerations(plain, 0.5, s, sd, (), 1.0, 1.0)
     assert np.allclose(got, expected, rtol=1e-10)
+
+
+@pytest.mark.parametrize("which", ["slider_crank", "four_bar"])
+def test_the_generated_partition_determinant_is_det_phi_z(which, request):
+    from closedloop.closed_form import partition_determinant
+
+    system = request.getfixturevalue(which)
+    rng = np.random.default_rng(8)
+    s = rng.uniform(-3.0, 3.0, size=(system.n, 30))
+    expected = [np.linalg.det(system.jacobian(s[:, k])[:, system.z_index]) for k in range(30)]
+    assert np.allclose(partition_determinant(system)(s), expected, rtol=1e-12, atol=1e-12)
