@@ -30,7 +30,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.integrate import ode
-from scipy.optimize import brentq
 
 from .errors import IntegrationError
 
@@ -226,7 +225,7 @@ def _hermite_root(g0, g1, d0, d1):
 
     ``g0`` and ``g1`` bracket zero (g0 != g1).  The cubic is sampled at eight
     points first, so that of several zeros the earliest is taken, then the
-    bracket is refined with brentq.
+    bracket is refined by Newton steps kept inside it (bisection otherwise).
     """
     def p(u):
         v = 1.0 - u
@@ -241,9 +240,30 @@ def _hermite_root(g0, g1, d0, d1):
         if after == 0.0:
             return right
         if (after > 0.0) != (value > 0.0):
-            return brentq(p, left, right, xtol=1e-13)
+            return _refine(p, left, right, value > 0.0, g0, g1, d0, d1)
         left, value = right, after
     return 1.0               # only reached through round-off in the samples: take the step end
+
+
+def _refine(p, left, right, left_positive, g0, g1, d0, d1):
+    """The zero of the Hermite cubic p in the bracket [left, right], to 1e-13."""
+    u = 0.5 * (left + right)
+    for _ in range(60):
+        value = p(u)
+        if value == 0.0:
+            return u
+        if (value > 0.0) == left_positive:
+            left = u
+        else:
+            right = u
+        slope = (6.0 * u * (u - 1.0) * (g0 - g1) + (1.0 - u) * (1.0 - 3.0 * u) * d0
+                 + u * (3.0 * u - 2.0) * d1)                                  # dp/du
+        step = u - value / slope if slope != 0.0 else left - 1.0
+        u_next = step if left < step < right else 0.5 * (left + right)
+        if abs(u_next - u) <= 1e-13 or right - left <= 1e-13:
+            return u_next
+        u = u_next
+    return u
 
 
 def _locate(rhs, switching, state, directions, rtol, atol, failure):
