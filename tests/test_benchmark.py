@@ -138,3 +138,37 @@ def test_bad_input_is_one_line_and_exit_2(capsys, args, message):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.startswith("closedloop: error:")
     assert re.search(message, err)
+
+
+def test_error_t10_comes_from_the_timed_run_whose_cpu_time_is_recorded():
+    """ode.dop853 stops at every output time, so its 2001-point grid run is far more accurate
+    than the timed run (outputs at 10 s and 20 s): the row must report the timed run's error."""
+    import numpy as np
+
+    from closedloop import simulate
+    from closedloop.benchmark import _Context, _measure, _reference
+    from closedloop.formulations import ClosedForm
+    from closedloop.slider_crank import get_case, initial_state, slider_crank_system
+
+    system = slider_crank_system()
+    case = get_case(2)
+    state = initial_state(system, case.phi0, case.dphi0)
+    grid = np.linspace(0.0, 20.0, 2001)
+    reference, _ = _reference(system, state, grid, 1000)
+    context = _Context(system, None, state, grid, 1000, reference)
+    entry = next(e for e in study_entries() if e.key == "closed-form")
+    timed = simulate(system, state, 20.0, formulation=ClosedForm(1, 1), method="ode.dop853", rtol=1e-6,
+                     atol=1e-6, t_eval=(10.0, 20.0))
+    on_grid = simulate(system, state, 20.0, formulation=ClosedForm(1, 1), method="ode.dop853", rtol=1e-6,
+                       atol=1e-6, t_eval=grid)
+    timed_error = np.abs(np.concatenate((timed.s[:, 0], timed.sd[:, 0])) - reference[:, 1000]).max()
+    grid_error = np.abs(np.concatenate((on_grid.s[:, 1000], on_grid.sd[:, 1000])) - reference[:, 1000]).max()
+    assert grid_error < timed_error / 100          # the grid run is not the run that was timed
+    row = _measure(entry, context, 2, "ode.dop853", 1e-6, repeats=1)
+    assert row["error_t10"] == timed_error and row["nfev"] < on_grid.nfev / 10
+    # for a solve_ivp method the grid is interpolated: the same steps, the same value at 10 s
+    row = _measure(entry, context, 2, "DOP853", 1e-6, repeats=1)
+    on_grid = simulate(system, state, 20.0, formulation=ClosedForm(1, 1), method="DOP853", rtol=1e-6,
+                       atol=1e-6, t_eval=grid)
+    assert row["error_t10"] == np.abs(np.concatenate((on_grid.s[:, 1000], on_grid.sd[:, 1000]))
+                                      - reference[:, 1000]).max()

@@ -67,3 +67,57 @@ def test_closed_form_simulation_matches_baumgarte_step_for_step(slider_crank):
     d = simulate(slider_crank, state, 5.0, formulation=Augmented(), method="DOP853", rtol=1e-10, atol=1e-10,
                  t_eval=np.linspace(0, 5, 11))
     assert np.max(np.abs(c.s - d.s)) < 1e-9
+
+
+@pytest.mark.parametrize("alpha, beta", GAINS)
+@pytest.mark.parametrize("mode", [(False, False), (False, True), (True, False), (True, True)])
+def test_the_folded_right_hand_side_equals_the_closed_form_plus_the_force_call(slider_crank, alpha, beta, mode):
+    """closed_form_rhs folds the gas force (sympy, per branch) and the gains into one function; the
+    reference is the generic closed form with the force evaluated by GasForce.components."""
+    from closedloop.closed_form import closed_form_accelerations, closed_form_rhs
+
+    folded = closed_form_rhs(slider_crank, mode, alpha, beta)
+    unfolded = closed_form_accelerations(slider_crank)
+    outside = 0
+    for s, sd in random_states(40, seed=5):          # x_C in (1, 6): inside and outside the stroke 1.5-5.5
+        t = float(np.random.default_rng(int(sd[0] * 1e6) % 2**32).uniform(0, 20))
+        s_list, sd_list = s.tolist(), sd.tolist()
+        force = slider_crank.force.components(t, s_list, sd_list, mode)
+        outside += force[2] == 0.0
+        expected = np.array(sd_list + unfolded(t, s_list, sd_list, force, alpha, beta))
+        got = np.array(folded(t, np.concatenate((s, sd))))
+        assert np.allclose(got, expected, rtol=1e-12, atol=1e-12 * np.max(np.abs(expected)))
+    assert 0 < outside < 40 or not mode[0]
+
+
+def test_folded_functions_are_shared_by_branches_with_the_same_force_and_missing_forms_fall_back(slider_crank):
+    from closedloop.closed_form import closed_form_rhs
+    from closedloop.forces import SwitchedForce
+    from closedloop.model import System
+
+    # the gas force is 0 on both branches "moving inward": one function for the two
+    assert closed_form_rhs(slider_crank, (False, True), 1, 1) is closed_form_rhs(slider_crank, (False, False), 1, 1)
+    assert closed_form_rhs(slider_crank, (True, True), 1, 1) is not closed_form_rhs(slider_crank, (True, False), 1, 1)
+
+    class Spring(SwitchedForce):                     # a force with no sympy form: the generic path
+        def __call__(self, t, s, sd, mode):
+            return np.array([0.0, 0.0, -30.0 * (s[2] - 3.0)])
+
+    plain = System(slider_crank.model, dict(zip(map(str, slider_crank.model.parameters),
+                                                slider_crank.parameter_values)), Spring())
+    assert closed_form_rhs(plain, (), 1, 1) is None
+    s, sd = next(random_states(1, seed=3))
+    got = ClosedForm(1, 1).accelerations(plain, 0.5, s, sd, ())
+    expected = augmented_accelerations(plain, 0.5, s, sd, (), 1.0, 1.0)
+    assert np.allclose(got, expected, rtol=1e-10)
+
+
+@pytest.mark.parametrize("which", ["slider_crank", "four_bar"])
+def test_the_generated_partition_determinant_is_det_phi_z(which, request):
+    from closedloop.closed_form import partition_determinant
+
+    system = request.getfixturevalue(which)
+    rng = np.random.default_rng(8)
+    s = rng.uniform(-3.0, 3.0, size=(system.n, 30))
+    expected = [np.linalg.det(system.jacobian(s[:, k])[:, system.z_index]) for k in range(30)]
+    assert np.allclose(partition_determinant(system)(s), expected, rtol=1e-12, atol=1e-12)

@@ -16,6 +16,13 @@ in, common subexpressions are shared, and the result is generated as one
 and no linear solve: for the slider-crank one call costs about 1.5 µs against
 about 20 µs for assembling and solving (12) with numpy.
 
+For an integration segment, where the branch (``mode``) of a switched force
+and the gains are fixed, :func:`closed_form_rhs` goes one step further: when the
+force can write itself as sympy expressions on that branch
+(:meth:`closedloop.forces.SwitchedForce.expressions`), the force and the gains are
+folded in as well, and the whole first-order right-hand side ``y' = [s', s'']``
+is generated as one function of ``(t, y)``: one Python call per evaluation.
+
 The closed form is exactly as singular as R of (20): where det Phi_z = 0 it
 divides by zero.  Use :class:`closedloop.formulations.Augmented` or a null-space
 formulation there.
@@ -23,11 +30,15 @@ formulation there.
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
 import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
 
-from .errors import InputError
+from .errors import InputError, SingularConfigurationError, at_time
 
-__all__ = ["closed_form_accelerations", "MAX_CLOSED_FORM_SIZE"]
+__all__ = ["closed_form_accelerations", "closed_form_rhs", "partition_determinant", "MAX_CLOSED_FORM_SIZE"]
 
 #: Largest r (for Phi_z) and f (for R^T M R) whose inverse is formed symbolically.
 MAX_CLOSED_FORM_SIZE = 3
@@ -131,3 +142,116 @@ def closed_form_accelerations(system):
                            expressions, modules="math", cse=True)
     system._closed_form = function
     return function
+
+
+def _singular(t):
+    return SingularConfigurationError(
+        f"Phi_z is singular{at_time(t)} (det Phi_z = 0): the closed form of (26) divides "
+        "by it; use Augmented or the NullSpace formulation through this configuration"
+    )
+
+
+def _generate_rhs(velocities, accelerations, time, coordinates):
+    """Source and function ``rhs(t, y) -> list`` for ``y' = [s', s'']``, with ``y = [s, s']`` an array.
+
+    The model's symbols are renamed (any sympy name is allowed in a model), common
+    subexpressions are shared, and the state is read with ``y.tolist()``: the
+    ``math`` functions are fastest on Python floats.
+    """
+    n = len(coordinates)
+    names = [sp.Symbol(f"_y{i}") for i in range(2 * n)]
+    rename = dict(zip(list(coordinates) + list(velocities), names))
+    rename[time] = sp.Symbol("_t")
+    expressions = [sp.sympify(e).xreplace(rename) for e in accelerations]
+    replacements, reduced = sp.cse(expressions, symbols=sp.numbered_symbols("_c"))
+    printer = PythonCodePrinter({"fully_qualified_modules": False})
+    lines = ["def rhs(_t, y):", "    try:", f"        {', '.join(map(str, names))}, = y.tolist()"]
+    lines += [f"        {symbol} = {printer.doprint(value)}" for symbol, value in replacements]
+    lines.append(f"        return [{', '.join(map(str, names[n:]))}, {', '.join(map(printer.doprint, reduced))}]")
+    lines += ["    except ZeroDivisionError:", "        raise _singular(_t) from None"]
+    source = "\n".join(lines) + "\n"
+    namespace = {name: getattr(math, name) for name in dir(math) if not name.startswith("_")}
+    namespace["_singular"] = _singular
+    exec(compile(source, "<closed form rhs>", "exec"), namespace)      # noqa: S102 (our own sympy output)
+    rhs = namespace["rhs"]
+    rhs.source = source
+    return rhs
+
+
+def closed_form_rhs(system, mode, alpha, beta):
+    """The generated ``rhs(t, y) -> list`` of ``y' = [s', s'']`` on one branch of the force, or None.
+
+    s'' is that of (26) with the gains ``alpha``, ``beta`` of (17) and the
+    switched force on branch ``mode`` folded in as numbers and expressions, so
+    that one call evaluates the whole right-hand side.  ``y`` is an array
+    ``[s, s']`` of 2n floats.  Returns None when the system's force has no
+    sympy form on that branch (:meth:`~closedloop.forces.SwitchedForce.expressions`);
+    :class:`~closedloop.formulations.ClosedForm` then calls the force itself.
+    Built once per system, branch and pair of gains, and kept on the system.
+
+    Parameters
+    ----------
+    system : System
+    mode : tuple of bool
+    alpha, beta : float
+
+    Returns
+    -------
+    callable or None
+
+    Raises
+    ------
+    SingularConfigurationError
+        When called where det Phi_z = 0.
+    """
+    by_mode = system.__dict__.setdefault("_closed_form_rhs", {})
+    key = (mode, float(alpha), float(beta))
+    if key not in by_mode:
+        by_mode[key] = _folded_rhs(system, mode, float(alpha), float(beta))
+    return by_mode[key]
+
+
+def _folded_rhs(system, mode, alpha, beta):
+    """closed_form_rhs without the cache per branch (branches with the same force share a function)."""
+    model = system.model
+    if system.force is None:
+        force = [sp.Integer(0)] * system.n
+    else:
+        force = system.force.expressions(mode, model.time, list(model.coordinates), list(model.velocities))
+        if force is None:
+            return None
+        force = [sp.sympify(v) for v in force]
+    by_force = system.__dict__.setdefault("_closed_form_rhs_by_force", {})
+    key = (tuple(force), alpha, beta)
+    if key not in by_force:
+        accelerations, (Q, alpha_symbol, beta_symbol) = closed_form_expressions(system)
+        values = dict(zip(Q, force))
+        values.update({alpha_symbol: sp.Float(alpha), beta_symbol: sp.Float(beta)})
+        by_force[key] = _generate_rhs(model.velocities, [e.xreplace(values) for e in accelerations], model.time,
+                                      model.coordinates)
+    return by_force[key]
+
+
+def partition_determinant(system):
+    """det Phi_z of the model's partition as a generated numpy function of the coordinates, or None.
+
+    ``determinant(s) -> ndarray`` takes s of shape (n, K) and returns det Phi_z
+    at the K configurations (R of (20) exists where it is not zero).  Formed
+    symbolically for r <= :data:`MAX_CLOSED_FORM_SIZE` with the parameter values
+    folded in; None for a larger r.  Built once per system and kept on it.
+    """
+    if system.r > MAX_CLOSED_FORM_SIZE:
+        return None
+    cached = system.__dict__.get("_partition_determinant")
+    if cached is None:
+        model = system.model
+        values = dict(zip(model.parameters, (sp.Float(v) for v in system.parameter_values.tolist())))
+        Phi_z = system.derived.jacobian[:, list(system.z_index)]
+        det = sp.sympify(Phi_z.det(method="berkowitz")).xreplace(values)
+        function = sp.lambdify([list(model.coordinates)], det, modules="numpy")
+
+        def cached(s):
+            return np.broadcast_to(np.asarray(function(list(s)), dtype=float), s.shape[1:])
+
+        system._partition_determinant = cached
+    return cached

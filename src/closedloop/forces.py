@@ -52,6 +52,16 @@ class SwitchedForce:
         return np.asarray(self(t, np.asarray(s, dtype=float), np.asarray(sd, dtype=float), mode),
                           dtype=float).tolist()
 
+    def expressions(self, mode, time, coordinates, velocities):
+        """The force on branch ``mode`` as n sympy expressions, or None (the default) if it has none.
+
+        ``time``, ``coordinates`` and ``velocities`` are the model's symbols.
+        :func:`closedloop.closed_form.closed_form_rhs` folds these expressions
+        into its generated right-hand side; they must equal :meth:`__call__` on
+        that branch.
+        """
+        return None
+
     def switching_functions_many(self, t, s, sd) -> np.ndarray:
         """The h_i at K states, shape (k, K); ``s``, ``sd`` of shape (n, K), t a float or (K,).
 

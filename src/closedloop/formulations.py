@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .closed_form import closed_form_accelerations
+from .closed_form import closed_form_accelerations, closed_form_rhs
 from .errors import ConvergenceError, InputError, SingularConfigurationError, at_time
 from .kinematics import solve_dependent
 from .model import _orthogonal_complement, condition_number, solve_augmented, solve_small
@@ -422,6 +422,9 @@ class ClosedForm(_Stabilised):
     name = "closed form"
 
     def make_rhs(self, system, mode, unpack):
+        folded = closed_form_rhs(system, mode, self.alpha, self.beta)     # force and gains folded in
+        if folded is not None:
+            return folded
         n = system.n
         accelerations = closed_form_accelerations(system)
         force = system.force

@@ -30,7 +30,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.integrate import ode
-from scipy.optimize import brentq
 
 from .errors import IntegrationError
 
@@ -131,15 +130,24 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     count = [0]
     failure = []
 
-    def counted(t, y):
-        count[0] += 1
-        try:
-            if count[0] > max_nfev:
-                raise BudgetExceeded(t)
-            return rhs(t, y)
-        except Exception as error:          # the compiled caller cannot propagate it: stop and re-raise
-            failure.append(error)
-            return [math.nan] * y.size
+    if max_nfev == math.inf:
+        def counted(t, y):
+            count[0] += 1
+            try:
+                return rhs(t, y)
+            except Exception as error:      # the compiled caller cannot propagate it: stop and re-raise
+                failure.append(error)
+                return [math.nan] * y.size
+    else:
+        def counted(t, y):
+            count[0] += 1
+            try:
+                if count[0] > max_nfev:
+                    raise BudgetExceeded(t)
+                return rhs(t, y)
+            except Exception as error:
+                failure.append(error)
+                return [math.nan] * y.size
 
     directions = tuple(float(d) for d in directions)
     start_values = list(switching(t0, y0))
@@ -153,16 +161,15 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         if t <= state["t"]:                  # the call at the start point
             return 0
         g = list(switching(t, y))
-        for i, (before, after) in enumerate(zip(state["g"], g)):
-            rising, falling = before <= 0.0 <= after, before >= 0.0 >= after
-            if (rising and directions[i] >= 0 and after != before) or \
-               (falling and directions[i] <= 0 and after != before):
+        for before, after, direction in zip(state["g"], g, directions):
+            if after != before and ((direction >= 0 and before <= 0.0 <= after) or
+                                    (direction <= 0 and before >= 0.0 >= after)):
                 state["hit"] = (t, y.copy(), g)
                 return -1
-        state["step"] = t - state["t"]
-        steps.append(state["step"])
+        state["step"] = step = t - state["t"]
+        steps.append(step)
         ends.append(y.copy())
-        state.update(t=t, y=y.copy(), g=g)
+        state["t"], state["y"], state["g"] = t, y.copy(), g
         if outputs is None:
             times.append(t)
             states.append(y.copy())
@@ -213,56 +220,106 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                    np.array(ends).T)
 
 
+def _hermite_root(g0, g1, d0, d1):
+    """The first zero in [0, 1] of the cubic with values g0, g1 and slopes d0, d1 at 0 and 1.
+
+    ``g0`` and ``g1`` bracket zero (g0 != g1).  The cubic is sampled at eight
+    points first, so that of several zeros the earliest is taken, then the
+    bracket is refined by Newton steps kept inside it (bisection otherwise).
+    """
+    def p(u):
+        v = 1.0 - u
+        return (1.0 + 2.0 * u) * v * v * g0 + u * v * v * d0 + u * u * (3.0 - 2.0 * u) * g1 - u * u * v * d1
+
+    if g0 == 0.0:
+        return 0.0
+    left, value = 0.0, g0
+    for k in range(1, 9):
+        right = k / 8.0
+        after = p(right) if k < 8 else g1
+        if after == 0.0:
+            return right
+        if (after > 0.0) != (value > 0.0):
+            return _refine(p, left, right, value > 0.0, g0, g1, d0, d1)
+        left, value = right, after
+    return 1.0               # only reached through round-off in the samples: take the step end
+
+
+def _refine(p, left, right, left_positive, g0, g1, d0, d1):
+    """The zero of the Hermite cubic p in the bracket [left, right], to 1e-13."""
+    u = 0.5 * (left + right)
+    for _ in range(60):
+        value = p(u)
+        if value == 0.0:
+            return u
+        if (value > 0.0) == left_positive:
+            left = u
+        else:
+            right = u
+        slope = (6.0 * u * (u - 1.0) * (g0 - g1) + (1.0 - u) * (1.0 - 3.0 * u) * d0
+                 + u * (3.0 * u - 2.0) * d1)                                  # dp/du
+        step = u - value / slope if slope != 0.0 else left - 1.0
+        u_next = step if left < step < right else 0.5 * (left + right)
+        if abs(u_next - u) <= 1e-13 or right - left <= 1e-13:
+            return u_next
+        u = u_next
+    return u
+
+
 def _locate(rhs, switching, state, directions, rtol, atol, failure):
-    """The first zero inside the step that stopped the code: ``(t, y, index)``."""
+    """The first zero inside the step that stopped the code: ``(t, y, index)``.
+
+    Each switching function g_i is approximated over the step by the cubic
+    Hermite interpolant of its values and its rates dg_i/dt at both ends (the
+    rates along the flow, by a forward difference), which costs two right-hand
+    sides and two more switching evaluations, and needs no interpolated states.
+    """
     ta, ya, ga = state["t"], state["y"], state["g"]
     tb, yb, gb = state["hit"]
     h = tb - ta
+    eps = 1e-7 * max(abs(h), 1e-9)
     fa, fb = np.asarray(rhs(ta, ya)), np.asarray(rhs(tb, yb))
-
-    def hermite(t):
-        u = (t - ta) / h
-        return ((1 + 2 * u) * (1 - u) ** 2 * ya + u * (1 - u) ** 2 * h * fa
-                + u * u * (3 - 2 * u) * yb + u * u * (u - 1) * h * fb)
-
+    rates_a = [(after - before) / eps for before, after in zip(ga, switching(ta + eps, ya + eps * fa))]
+    rates_b = [(after - before) / eps for before, after in zip(gb, switching(tb + eps, yb + eps * fb))]
     best = None
     for i, d in enumerate(directions):
         before, after = ga[i], gb[i]
         crossed = (before <= 0.0 <= after and d >= 0) or (before >= 0.0 >= after and d <= 0)
         if not crossed or before == after:
             continue
-        g = lambda t, i=i: switching(t, hermite(t))[i]                       # noqa: E731
-        if g(ta) == 0.0:
-            root = ta
-        elif (g(ta) > 0) == (g(tb) > 0):
-            root = tb                  # the interpolant misses the crossing: take the step end
-        else:
-            root = brentq(g, ta, tb, xtol=1e-9 * h)          # Newton below polishes it
+        root = ta + h * _hermite_root(before, after, h * rates_a[i], h * rates_b[i])
         if best is None or root < best[0]:
             best = (root, i)
     t_star, i = best
     # The state at the estimate, integrated (not interpolated), then Newton in time.
     t, y = t_star, _redo(rhs, ta, ya, t_star, rtol, atol) if t_star > ta else ya.copy()
+    rate, delta = None, math.inf
     for _ in range(8):
         if failure:
             break
         g = switching(t, y)[i]
         if g == 0.0:
             break
-        f = np.asarray(rhs(t, y))
-        eps = 1e-7 * max(abs(h), 1e-9)
-        rate = (switching(t + eps, y + eps * f)[i] - g) / eps
-        if rate == 0.0 or not math.isfinite(rate):
-            break
-        delta = -g / rate
-        if abs(delta) <= 4e-16 * max(1.0, abs(t)):
-            break
+        if abs(delta) <= 1e-5:              # after a short correction the last rate still serves
+            delta = -g / rate
+            if abs(delta) <= 4e-16 * max(1.0, abs(t)):
+                break
+            f = np.asarray(rhs(t, y))
+        else:                               # first, or after a redo: the rate at this t
+            f = np.asarray(rhs(t, y))
+            rate = (switching(t + eps, y + eps * f)[i] - g) / eps
+            if rate == 0.0 or not math.isfinite(rate):
+                break
+            delta = -g / rate
+            if abs(delta) <= 4e-16 * max(1.0, abs(t)):
+                break
         if abs(delta) <= 1e-5 and ta < t + delta:
             y = y + 0.5 * delta * (f + np.asarray(rhs(t + delta, y + delta * f)))   # Heun: O(delta^3)
             t = t + delta
         else:
             t = min(max(t + delta, ta), tb)
             y = _redo(rhs, ta, ya, t, rtol, atol)
+            delta = math.inf
     return t, y, i
 
 

@@ -55,6 +55,7 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau, so
 from scipy.optimize import brentq
 
 from . import ode_dop853
+from .closed_form import closed_form_rhs, partition_determinant
 from .errors import InputError, IntegrationError, SingularConfigurationError
 from .formulations import Augmented, Baumgarte, ClosedForm, Minimal, NullSpace, Orthogonal
 from .kinematics import InitialState
@@ -412,9 +413,26 @@ class _Run:
         self._next_output = 0      # index into t_eval
 
     # -- mode decisions ---------------------------------------------------------
+    def _accelerations(self, t, s, sd, mode):
+        """s'' of (12) on branch ``mode``.
+
+        With ClosedForm, whose closed form is generated anyway, from that closed
+        form with alpha = beta = 0 (the same s'' of (12), without assembling and
+        solving the augmented matrix); else, or where det Phi_z = 0, from the
+        augmented solve.
+        """
+        if isinstance(self.formulation, ClosedForm):
+            rhs = closed_form_rhs(self.system, mode, 0.0, 0.0)
+            if rhs is not None:
+                try:
+                    return np.array(rhs(t, np.concatenate((s, sd)))[self.system.n:])
+                except SingularConfigurationError:
+                    pass
+        return self.system.constrained_accelerations(t, s, sd, mode)[0]
+
     def _rate(self, t, s, sd, mode, i):
         """dh_i/dt along the constrained motion (12) on branch ``mode``."""
-        sdd = self.system.constrained_accelerations(t, s, sd, mode)[0]
+        sdd = self._accelerations(t, s, sd, mode)
         h = self.force.switching_functions
         eps = 1e-7
         return (h(t + eps, s + eps * sd, sd + eps * sdd)[i] - h(t, s, sd)[i]) / eps
@@ -597,8 +615,12 @@ class _Run:
         a step that jumps across such a point has left the configurations R describes.
         """
         system = self.system
-        Phi = system.constraints_and_jacobian_many(segment.step_ends[:system.n])[1]
-        det = np.linalg.det(np.moveaxis(Phi[:, system.z_index], 2, 0))
+        determinant = partition_determinant(system)            # generated once per system
+        if determinant is not None:
+            det = determinant(segment.step_ends[:system.n])
+        else:
+            Phi_z = system.constraints_and_jacobian_many(segment.step_ends[:system.n])[1][:, system.z_index]
+            det = np.linalg.det(np.moveaxis(Phi_z, 2, 0))
         flips = np.nonzero(np.sign(det[1:]) * np.sign(det[:-1]) < 0)[0]
         if flips.size:
             times = np.concatenate(([t0], t0 + np.cumsum(segment.steps), [segment.t_stop]))
@@ -681,7 +703,8 @@ class _Run:
             if h is None and stop_when is None:
                 return ()
             s, sd = unpack(y, t)
-            values = list(h(t, s, sd)) if h is not None else []
+            values = h(t, s, sd) if h is not None else []
+            values = values.tolist() if isinstance(values, np.ndarray) else list(values)
             return values + [stop_when(t, s, sd)] if stop_when is not None else values
 
         directions = [-1.0 if on else 1.0 for on in mode[:len(self.names)]]

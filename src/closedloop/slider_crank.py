@@ -254,6 +254,19 @@ class GasForce(SwitchedForce):
     def switching_functions_many(self, t, s, sd):
         return np.array([sd[2], s[2] - 5.0])
 
+    def expressions(self, mode, time, coordinates, velocities):
+        """The force of :meth:`components` on branch ``mode`` as sympy expressions ``[0, 0, F]``."""
+        moving_out, beyond_five = mode
+        if not moving_out:
+            return [0, 0, 0]
+        x = coordinates[2]
+        if beyond_five:
+            formula = -sp.Float(self._c) * (1 - sp.sin(2 * sp.pi * (x - sp.Float(5.25))))
+        else:
+            formula = -sp.Float(self._a) / (6 - x) + sp.Float(self._b)
+        value = sp.Piecewise((sp.Float(self._sign) * formula, (x >= 1.5) & (x <= 5.5)), (0, True))
+        return [0, 0, value]
+
     def many(self, t, s, sd, mode):
         """The force at K states at once, each on its own branch ``mode[:, j]`` (same formula as a call)."""
         moving_out, beyond_five = mode
