@@ -118,9 +118,13 @@ def scaled(factor=1.5, shift=1.0):
 
 
 def make_check(checks: dict):
-    """The ``check(label, answer)`` function of one chapter's module."""
+    """The ``check(label, answer)`` function of one chapter's module.
+
+    It prints the verdict and returns None, so that a notebook cell ending in ``check(...)``
+    shows the verdict alone (``Check.__call__`` returns it as a bool, for graders).
+    """
     def check(label, answer):
         if label not in checks:
             raise KeyError(f"no exercise {label!r} here; the exercises are {', '.join(checks)}")
-        return checks[label](answer)
+        checks[label](answer)
     return check

@@ -373,9 +373,10 @@ class NullSpace(_Stabilised):
     :func:`null_space_basis` in place of R of (20), and Baumgarte's p2~ of (17)
     in the constraint rows.  N exists wherever Phi_s has full row rank, so
     this formulation carries a simulation through the dead positions where
-    Phi_z (and so R of (20)) is singular, which :class:`Minimal` and
-    :class:`Orthogonal` can not pass.  It still stops, with a clear error,
-    where Phi_s itself loses rank.
+    Phi_z (and so R of (20)) is singular.  :class:`Minimal` can not pass them;
+    :class:`Orthogonal` passes them only because its steps happen not to land
+    where R blows up, and it refuses a state on one.  It still stops, with a
+    clear error, where Phi_s itself loses rank.
 
     Parameters
     ----------

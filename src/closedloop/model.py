@@ -25,7 +25,7 @@ import sympy as sp
 
 from .errors import InputError, SingularConfigurationError, at_time
 
-__all__ = ["MultibodyModel", "DerivedModel", "derive", "System", "array_functions"]
+__all__ = ["MultibodyModel", "DerivedModel", "derive", "System", "array_functions", "condition_number", "CONDITION_LIMIT"]
 
 
 @dataclass(frozen=True)
