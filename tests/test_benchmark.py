@@ -172,3 +172,15 @@ def test_error_t10_comes_from_the_timed_run_whose_cpu_time_is_recorded():
                        atol=1e-6, t_eval=grid)
     assert row["error_t10"] == np.abs(np.concatenate((on_grid.s[:, 1000], on_grid.sd[:, 1000]))
                                       - reference[:, 1000]).max()
+
+
+def test_the_baseline_keeps_its_own_methods_in_every_case():
+    """The other cases run fewer methods; the baseline keeps LSODA there, its best in case 2,
+    so that the library's speed-up in those cases is not measured against a handicapped rival."""
+    from closedloop.benchmark import DEFAULT_SETTINGS as settings
+
+    assert settings.methods_of(settings.main_case, BASELINE_KEY) == settings.methods
+    for case in settings.cases:
+        if case != settings.main_case:
+            assert "LSODA" in settings.methods_of(case, BASELINE_KEY)
+            assert "LSODA" not in settings.methods_of(case, "closed-form")
