@@ -11,7 +11,10 @@ The gas force is not a potential force: it acts only while x_C' > 0.  On that
 outward branch it depends on x_C alone, so it has a work function there,
 :func:`gas_outward_work`, and ``W_F`` is a sum of its increments over the outward
 pieces of the motion.  No quadrature of a kinked power is needed, and the balance
-checks a simulation to the tolerance of its integrator.
+checks a simulation to the tolerance of its integrator.  (For any system, the work
+can instead be integrated with the run: ``simulate(..., work=True)`` and
+:func:`closedloop.balance.energy_balance`.  That check shares the run's
+integration error; this one does not.)
 
 The torque ``M(t) = M_bar + 0.01 sin(Omega t)`` depends on time only through its
 ripple; ``W_M = M_bar (phi - phi_0) + W_ripple``, and ``|W_ripple|`` is at most
