@@ -261,13 +261,13 @@ class Minimal:
             R = _orthogonal_complement(Phi, qi, zi, t)
             if side != last["side"]:
                 condition = condition_number(system.jacobian(last["s"])[:, zi])
-                if condition > WELL_CONDITIONED:
+                moved = np.abs(y[:f] - last["s"][qi]).max()
+                if moved / CONTINUATION_PIECES[-1] <= CONTINUATION_STEP:
                     why = ("so the path met a dead position of q, or Newton's z jumped to another branch near one; "
                            "q alone can not pass it: use the NullSpace formulation (near a bifurcation, also "
                            "tighten rtol and atol)")
                 else:
-                    why = (f"although Phi_z was well conditioned: a step moved q by "
-                           f"{np.abs(y[:f] - last['s'][qi]).max():.3g}, too far for Newton to follow even in "
+                    why = (f"but a step moved q by {moved:.3g}, too far for Newton to follow z even in "
                            f"{CONTINUATION_PIECES[-1]} pieces, so the motion is too fast for the step; give a "
                            "max_step, or use a formulation that does not solve for z (Orthogonal, NullSpace)")
                 raise SingularConfigurationError(
@@ -315,8 +315,9 @@ class Minimal:
 #: Numbers of equal pieces Minimal's Newton continuation tries, in turn, when a single Newton solve
 #: from the prediction lands on another assembly branch (see Minimal.unpacker).
 CONTINUATION_PIECES = (8, 64)
-#: cond(Phi_z) below which a change of branch is blamed on a long step rather than a dead position.
-WELL_CONDITIONED = 1e3
+#: Longest piece of q (radians or metres) on which the continuation's Newton solve is trusted: a
+#: change of branch on shorter pieces is a dead position of q; on longer ones, a step too long.
+CONTINUATION_STEP = 0.05
 
 #: sigma_min(Phi_s) / sigma_max(Phi_s) below which Phi_s counts as rank deficient.
 RANK_LIMIT = 1e-10
