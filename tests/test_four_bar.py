@@ -99,7 +99,7 @@ def test_minimal_stops_at_the_first_fold_when_the_pendulum_reaches_it(parallelog
     with pytest.raises(SingularConfigurationError, match="left their assembly branch") as caught:
         simulate(parallelogram, start, 5.0, formulation=Minimal(), method="DOP853", rtol=1e-11, atol=1e-11,
                  max_step=step)
-    assert "use the NullSpace formulation" in str(caught.value)
+    assert "use the NullSpace formulation" in str(caught.value) and "too fast" not in str(caught.value)
     assert 0.5 < fold_time < 0.55
     assert fold_time - 1e-6 <= _stop_time(caught.value) <= fold_time + step + 1e-6   # 6 digits printed
 

@@ -91,6 +91,7 @@ def test_minimal_coordinates_fail_with_a_clear_error_at_the_first_dead_position(
         simulate(rocking, state, 8.0, formulation=Minimal(), method="DOP853", rtol=1e-10, atol=1e-10)
     failed_at = float(error.value.args[0].split("at t = ")[1].split(" s")[0])
     assert abs(failed_at - first) < 1e-3
+    assert "dead position of q" in str(error.value) and "too fast" not in str(error.value)
 
 
 def test_plain_r_refuses_a_dead_position_that_the_remedy_starts_from(rocking):
