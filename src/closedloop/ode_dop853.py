@@ -153,7 +153,9 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     start_values = list(switching(t0, y0))
     times, states = [t0], [y0.copy()]
     steps, ends = [], [y0.copy()]
+    # The last accepted step end (time, state, switching values), the step that crossed, the step size.
     state = {"t": t0, "y": y0.copy(), "g": start_values, "hit": None, "step": first_step}
+    keep_steps = outputs is None
 
     def solout(t, y):
         if failure:
@@ -161,18 +163,18 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         if t <= state["t"]:                  # the call at the start point
             return 0
         g = list(switching(t, y))
-        for before, after, direction in zip(state["g"], g, directions):
-            if after != before and ((direction >= 0 and before <= 0.0 <= after) or
-                                    (direction <= 0 and before >= 0.0 >= after)):
+        for b, a, direction in zip(state["g"], g, directions):
+            if a != b and ((direction >= 0 and b <= 0.0 <= a) or (direction <= 0 and b >= 0.0 >= a)):
                 state["hit"] = (t, y.copy(), g)
                 return -1
-        state["step"] = step = t - state["t"]
+        step = t - state["t"]
         steps.append(step)
-        ends.append(y.copy())
-        state["t"], state["y"], state["g"] = t, y.copy(), g
-        if outputs is None:
+        y = y.copy()                         # one copy serves all three lists: none is changed in place
+        ends.append(y)
+        state["t"], state["y"], state["g"], state["step"] = t, y, g, step
+        if keep_steps:
             times.append(t)
-            states.append(y.copy())
+            states.append(y)
         return 0
 
     if outputs is None:
@@ -182,39 +184,39 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         targets = sorted(t for t in wanted | {float(t_end)} if t > t0)
         if t0 not in wanted:
             times, states = [], []
-    for target in targets:
-        if target <= state["t"]:
-            continue
-        solver = ode(counted).set_integrator("dop853", rtol=rtol, atol=atol, nsteps=nsteps,
-                                             first_step=min(state["step"], target - state["t"]),
-                                             max_step=max_step)
-        solver.set_solout(solout)
-        solver.set_initial_value(state["y"], state["t"])
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
+    with warnings.catch_warnings():          # the code's warnings become the errors raised below
+        warnings.simplefilter("ignore", UserWarning)
+        for target in targets:
+            if target <= state["t"]:
+                continue
+            solver = ode(counted).set_integrator("dop853", rtol=rtol, atol=atol, nsteps=nsteps,
+                                                 first_step=min(state["step"], target - state["t"]),
+                                                 max_step=max_step)
+            solver.set_solout(solout)
+            solver.set_initial_value(state["y"], state["t"])
             solver.integrate(target)
-        if failure:
-            raise failure[0]
-        code = solver.get_return_code()
-        if state["hit"] is not None:
-            t_event, y_event, event = _locate(counted, switching, state, directions, rtol, atol, failure)
             if failure:
                 raise failure[0]
-            if outputs is None:                 # solve_ivp's convention: the event ends sol.t
-                times.append(t_event)
-                states.append(y_event)
-            return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_event,
-                           y_event, event, count[0], state["step"], steps,
-                           np.array(ends + [y_event]).T)
-        if code < 0:
-            raise IntegrationError(
-                f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
-                "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains"
-            )
-        state.update(t=target, y=np.array(solver.y, dtype=float))
-        if target in wanted:
-            times.append(target)
-            states.append(state["y"].copy())
+            code = solver.get_return_code()
+            if state["hit"] is not None:
+                t_event, y_event, event = _locate(counted, switching, state, directions, rtol, atol, failure)
+                if failure:
+                    raise failure[0]
+                if outputs is None:                 # solve_ivp's convention: the event ends sol.t
+                    times.append(t_event)
+                    states.append(y_event)
+                ends.append(y_event)
+                return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_event,
+                               y_event, event, count[0], state["step"], steps, np.array(ends).T)
+            if code < 0:
+                raise IntegrationError(
+                    f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
+                    "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains"
+                )
+            state.update(t=target, y=np.array(solver.y, dtype=float))
+            if target in wanted:
+                times.append(target)
+                states.append(state["y"].copy())
     return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_end,
                    state["y"].copy(), None, count[0], state["step"], steps,
                    np.array(ends).T)
@@ -328,9 +330,7 @@ def _redo(rhs, ta, ya, t, rtol, atol):
     solver = ode(rhs).set_integrator("dop853", rtol=rtol, atol=atol, nsteps=DEFAULT_NSTEPS,
                                      first_step=t - ta)
     solver.set_initial_value(ya, ta)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
-        y = solver.integrate(t)
+    y = solver.integrate(t)                 # inside integrate_segment's catch_warnings
     if solver.get_return_code() < 0:
         raise IntegrationError(
             f"ode.dop853 failed at t = {solver.t:.6g} s while locating a switch: "
