@@ -430,16 +430,17 @@ class _Run:
                     pass
         return self.system.constrained_accelerations(t, s, sd, mode)[0]
 
-    def _rate(self, t, s, sd, mode, i):
-        """dh_i/dt along the constrained motion (12) on branch ``mode``."""
+    def _rate(self, t, s, sd, mode, i, h_now):
+        """dh_i/dt along the constrained motion (12) on branch ``mode``; ``h_now`` is h_i(t, s, s')."""
         sdd = self._accelerations(t, s, sd, mode)
         h = self.force.switching_functions
         eps = 1e-7
-        return (h(t + eps, s + eps * sd, sd + eps * sdd)[i] - h(t, s, sd)[i]) / eps
+        return (h(t + eps, s + eps * sd, sd + eps * sdd)[i] - h_now) / eps
 
     def _side_rates(self, t, s, sd, mode, i):
-        off = self._rate(t, s, sd, mode[:i] + (False,) + mode[i + 1:], i)
-        on = self._rate(t, s, sd, mode[:i] + (True,) + mode[i + 1:], i)
+        h_now = self.force.switching_functions(t, s, sd)[i]      # the same on both sides
+        off = self._rate(t, s, sd, mode[:i] + (False,) + mode[i + 1:], i, h_now)
+        on = self._rate(t, s, sd, mode[:i] + (True,) + mode[i + 1:], i, h_now)
         return off, on
 
     def _decide(self, t, s, sd, mode, i):
@@ -598,6 +599,8 @@ class _Run:
         return t_end, s_end, sd_end, event
 
     def _check_finite(self, t_out, y_out):
+        if np.isfinite(y_out).all():
+            return
         bad = ~np.all(np.isfinite(y_out), axis=0)
         if np.any(bad):
             k = int(np.argmax(bad))
@@ -621,6 +624,8 @@ class _Run:
         else:
             Phi_z = system.constraints_and_jacobian_many(segment.step_ends[:system.n])[1][:, system.z_index]
             det = np.linalg.det(np.moveaxis(Phi_z, 2, 0))
+        if (det > 0.0).all() or (det < 0.0).all():         # one sign along the whole segment
+            return
         flips = np.nonzero(np.sign(det[1:]) * np.sign(det[:-1]) < 0)[0]
         if flips.size:
             times = np.concatenate(([t0], t0 + np.cumsum(segment.steps), [segment.t_stop]))
@@ -699,13 +704,19 @@ class _Run:
         h = self.force.switching_functions if self.names else None
         stop_when = self.stop_when
 
-        def switching(t, y):
-            if h is None and stop_when is None:
-                return ()
-            s, sd = unpack(y, t)
-            values = h(t, s, sd) if h is not None else []
-            values = values.tolist() if isinstance(values, np.ndarray) else list(values)
-            return values + [stop_when(t, s, sd)] if stop_when is not None else values
+        if stop_when is None and h is not None:        # the common case, called after every step
+            def switching(t, y):
+                s, sd = unpack(y, t)
+                values = h(t, s, sd)
+                return values.tolist() if isinstance(values, np.ndarray) else list(values)
+        else:
+            def switching(t, y):
+                if h is None and stop_when is None:
+                    return ()
+                s, sd = unpack(y, t)
+                values = h(t, s, sd) if h is not None else []
+                values = values.tolist() if isinstance(values, np.ndarray) else list(values)
+                return values + [stop_when(t, s, sd)] if stop_when is not None else values
 
         directions = [-1.0 if on else 1.0 for on in mode[:len(self.names)]]
         if stop_when is not None:
