@@ -153,25 +153,26 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     start_values = list(switching(t0, y0))
     times, states = [t0], [y0.copy()]
     steps, ends = [], [y0.copy()]
-    # The last accepted step end (time, state, switching values), the step that crossed, the step size.
-    state = {"t": t0, "y": y0.copy(), "g": start_values, "hit": None, "step": first_step}
+    # The last accepted step end (time, state, switching values), its step size, and the step that crossed.
+    last_t, last_y, last_g, last_step, hit = t0, y0.copy(), start_values, first_step, None
     keep_steps = outputs is None
 
     def solout(t, y):
+        nonlocal last_t, last_y, last_g, last_step, hit
         if failure:
             return -1
-        if t <= state["t"]:                  # the call at the start point
+        if t <= last_t:                      # the call at the start point
             return 0
         g = list(switching(t, y))
-        for b, a, direction in zip(state["g"], g, directions):
+        for b, a, direction in zip(last_g, g, directions):
             if a != b and ((direction >= 0 and b <= 0.0 <= a) or (direction <= 0 and b >= 0.0 >= a)):
-                state["hit"] = (t, y.copy(), g)
+                hit = (t, y.copy(), g)
                 return -1
-        step = t - state["t"]
-        steps.append(step)
+        last_step = t - last_t
+        steps.append(last_step)
         y = y.copy()                         # one copy serves all three lists: none is changed in place
         ends.append(y)
-        state["t"], state["y"], state["g"], state["step"] = t, y, g, step
+        last_t, last_y, last_g = t, y, g
         if keep_steps:
             times.append(t)
             states.append(y)
@@ -187,19 +188,20 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     with warnings.catch_warnings():          # the code's warnings become the errors raised below
         warnings.simplefilter("ignore", UserWarning)
         for target in targets:
-            if target <= state["t"]:
+            if target <= last_t:
                 continue
             solver = ode(counted).set_integrator("dop853", rtol=rtol, atol=atol, nsteps=nsteps,
-                                                 first_step=min(state["step"], target - state["t"]),
+                                                 first_step=min(last_step, target - last_t),
                                                  max_step=max_step)
             solver.set_solout(solout)
-            solver.set_initial_value(state["y"], state["t"])
+            solver.set_initial_value(last_y, last_t)
             solver.integrate(target)
             if failure:
                 raise failure[0]
             code = solver.get_return_code()
-            if state["hit"] is not None:
-                t_event, y_event, event = _locate(counted, switching, state, directions, rtol, atol, failure)
+            if hit is not None:
+                t_event, y_event, event = _locate(counted, switching, (last_t, last_y, last_g), hit,
+                                                  directions, rtol, atol, failure)
                 if failure:
                     raise failure[0]
                 if outputs is None:                 # solve_ivp's convention: the event ends sol.t
@@ -207,18 +209,18 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                     states.append(y_event)
                 ends.append(y_event)
                 return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_event,
-                               y_event, event, count[0], state["step"], steps, np.array(ends).T)
+                               y_event, event, count[0], last_step, steps, np.array(ends).T)
             if code < 0:
                 raise IntegrationError(
                     f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
                     "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains"
                 )
-            state.update(t=target, y=np.array(solver.y, dtype=float))
+            last_t, last_y = target, np.array(solver.y, dtype=float)
             if target in wanted:
                 times.append(target)
-                states.append(state["y"].copy())
+                states.append(last_y.copy())
     return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_end,
-                   state["y"].copy(), None, count[0], state["step"], steps,
+                   last_y.copy(), None, count[0], last_step, steps,
                    np.array(ends).T)
 
 
@@ -268,7 +270,7 @@ def _refine(p, left, right, left_positive, g0, g1, d0, d1):
     return u
 
 
-def _locate(rhs, switching, state, directions, rtol, atol, failure):
+def _locate(rhs, switching, start, hit, directions, rtol, atol, failure):
     """The first zero inside the step that stopped the code: ``(t, y, index)``.
 
     Each switching function g_i is approximated over the step by the cubic
@@ -276,8 +278,8 @@ def _locate(rhs, switching, state, directions, rtol, atol, failure):
     rates along the flow, by a forward difference), which costs two right-hand
     sides and two more switching evaluations, and needs no interpolated states.
     """
-    ta, ya, ga = state["t"], state["y"], state["g"]
-    tb, yb, gb = state["hit"]
+    ta, ya, ga = start
+    tb, yb, gb = hit
     h = tb - ta
     eps = 1e-7 * max(abs(h), 1e-9)
     fa, fb = np.asarray(rhs(ta, ya)), np.asarray(rhs(tb, yb))

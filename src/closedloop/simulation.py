@@ -177,6 +177,13 @@ class SimulationResult:
         return self.sd[self.coordinate_names.index(name)]
 
 
+def _finite_and_positive(value):
+    """True for a finite number > 0, or an array of them (a float is checked without numpy)."""
+    if isinstance(value, float):
+        return math.isfinite(value) and value > 0
+    return bool(np.all(np.isfinite(value)) and np.all(np.asarray(value) > 0))
+
+
 def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, atol, t_eval,
               sticking_resolution, options, switching="events", max_nfev=None, max_steps=MAX_STEPS):
     for name, value in (("t_start", t_start), ("t_end", t_end)):
@@ -185,7 +192,7 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
     if not t_end > t_start:
         raise InputError(f"t_end: must be > t_start = {t_start:g}, got {t_end:g}")
     for name, value in (("rtol", rtol), ("atol", atol), ("sticking_resolution", sticking_resolution)):
-        if not (np.all(np.isfinite(value)) and np.all(np.asarray(value) > 0)):
+        if not _finite_and_positive(value):
             raise InputError(f"{name}: must be finite and > 0, got {value!r}")
     if not isinstance(formulation, _FORMULATIONS):
         raise InputError(
@@ -430,17 +437,13 @@ class _Run:
                     pass
         return self.system.constrained_accelerations(t, s, sd, mode)[0]
 
-    def _rate(self, t, s, sd, mode, i, h_now):
-        """dh_i/dt along the constrained motion (12) on branch ``mode``; ``h_now`` is h_i(t, s, s')."""
-        sdd = self._accelerations(t, s, sd, mode)
+    def _side_rates(self, t, s, sd, mode, i):
+        """dh_i/dt along the constrained motion (12) with switch i off and on: ``(off, on)``."""
         h = self.force.switching_functions
         eps = 1e-7
-        return (h(t + eps, s + eps * sd, sd + eps * sdd)[i] - h_now) / eps
-
-    def _side_rates(self, t, s, sd, mode, i):
-        h_now = self.force.switching_functions(t, s, sd)[i]      # the same on both sides
-        off = self._rate(t, s, sd, mode[:i] + (False,) + mode[i + 1:], i, h_now)
-        on = self._rate(t, s, sd, mode[:i] + (True,) + mode[i + 1:], i, h_now)
+        h_now, s_ahead = h(t, s, sd)[i], s + eps * sd          # the same on both sides
+        off, on = ((h(t + eps, s_ahead, sd + eps * self._accelerations(t, s, sd, branch))[i] - h_now) / eps
+                   for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
         return off, on
 
     def _decide(self, t, s, sd, mode, i):
