@@ -127,12 +127,13 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         If the code fails (the message names the time and the reason).
     """
     y0 = np.asarray(y0, dtype=float)
-    count = [0]
+    count = 0                               # right-hand-side evaluations
     failure = []
 
     if max_nfev == math.inf:
         def counted(t, y):
-            count[0] += 1
+            nonlocal count
+            count += 1
             try:
                 return rhs(t, y)
             except Exception as error:      # the compiled caller cannot propagate it: stop and re-raise
@@ -140,9 +141,10 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                 return [math.nan] * y.size
     else:
         def counted(t, y):
-            count[0] += 1
+            nonlocal count
+            count += 1
             try:
-                if count[0] > max_nfev:
+                if count > max_nfev:
                     raise BudgetExceeded(t)
                 return rhs(t, y)
             except Exception as error:
@@ -209,7 +211,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                     states.append(y_event)
                 ends.append(y_event)
                 return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_event,
-                               y_event, event, count[0], last_step, steps, np.array(ends).T)
+                               y_event, event, count, last_step, steps, np.array(ends).T)
             if code < 0:
                 raise IntegrationError(
                     f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
@@ -220,7 +222,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                 times.append(target)
                 states.append(last_y.copy())
     return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_end,
-                   last_y.copy(), None, count[0], last_step, steps,
+                   last_y.copy(), None, count, last_step, steps,
                    np.array(ends).T)
 
 
