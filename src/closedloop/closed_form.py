@@ -251,7 +251,8 @@ def partition_determinant(system):
         function = sp.lambdify([list(model.coordinates)], det, modules="numpy")
 
         def cached(s):
-            return np.broadcast_to(np.asarray(function(list(s)), dtype=float), s.shape[1:])
+            value = np.asarray(function(list(s)), dtype=float)
+            return value if value.shape == s.shape[1:] else np.broadcast_to(value, s.shape[1:])   # a constant
 
         system._partition_determinant = cached
     return cached

@@ -127,12 +127,13 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         If the code fails (the message names the time and the reason).
     """
     y0 = np.asarray(y0, dtype=float)
-    count = [0]
+    count = 0                               # right-hand-side evaluations
     failure = []
 
     if max_nfev == math.inf:
         def counted(t, y):
-            count[0] += 1
+            nonlocal count
+            count += 1
             try:
                 return rhs(t, y)
             except Exception as error:      # the compiled caller cannot propagate it: stop and re-raise
@@ -140,9 +141,10 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                 return [math.nan] * y.size
     else:
         def counted(t, y):
-            count[0] += 1
+            nonlocal count
+            count += 1
             try:
-                if count[0] > max_nfev:
+                if count > max_nfev:
                     raise BudgetExceeded(t)
                 return rhs(t, y)
             except Exception as error:
@@ -153,26 +155,29 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     start_values = list(switching(t0, y0))
     times, states = [t0], [y0.copy()]
     steps, ends = [], [y0.copy()]
-    state = {"t": t0, "y": y0.copy(), "g": start_values, "hit": None, "step": first_step}
+    # The last accepted step end (time, state, switching values), its step size, and the step that crossed.
+    last_t, last_y, last_g, last_step, hit = t0, y0.copy(), start_values, first_step, None
+    keep_steps = outputs is None
 
     def solout(t, y):
+        nonlocal last_t, last_y, last_g, last_step, hit
         if failure:
             return -1
-        if t <= state["t"]:                  # the call at the start point
+        if t <= last_t:                      # the call at the start point
             return 0
         g = list(switching(t, y))
-        for before, after, direction in zip(state["g"], g, directions):
-            if after != before and ((direction >= 0 and before <= 0.0 <= after) or
-                                    (direction <= 0 and before >= 0.0 >= after)):
-                state["hit"] = (t, y.copy(), g)
+        for b, a, direction in zip(last_g, g, directions):
+            if a != b and ((direction >= 0 and b <= 0.0 <= a) or (direction <= 0 and b >= 0.0 >= a)):
+                hit = (t, y.copy(), g)
                 return -1
-        state["step"] = step = t - state["t"]
-        steps.append(step)
-        ends.append(y.copy())
-        state["t"], state["y"], state["g"] = t, y.copy(), g
-        if outputs is None:
+        last_step = t - last_t
+        steps.append(last_step)
+        y = y.copy()                         # one copy serves all three lists: none is changed in place
+        ends.append(y)
+        last_t, last_y, last_g = t, y, g
+        if keep_steps:
             times.append(t)
-            states.append(y.copy())
+            states.append(y)
         return 0
 
     if outputs is None:
@@ -182,41 +187,42 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         targets = sorted(t for t in wanted | {float(t_end)} if t > t0)
         if t0 not in wanted:
             times, states = [], []
-    for target in targets:
-        if target <= state["t"]:
-            continue
-        solver = ode(counted).set_integrator("dop853", rtol=rtol, atol=atol, nsteps=nsteps,
-                                             first_step=min(state["step"], target - state["t"]),
-                                             max_step=max_step)
-        solver.set_solout(solout)
-        solver.set_initial_value(state["y"], state["t"])
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
+    with warnings.catch_warnings():          # the code's warnings become the errors raised below
+        warnings.simplefilter("ignore", UserWarning)
+        for target in targets:
+            if target <= last_t:
+                continue
+            solver = ode(counted).set_integrator("dop853", rtol=rtol, atol=atol, nsteps=nsteps,
+                                                 first_step=min(last_step, target - last_t),
+                                                 max_step=max_step)
+            solver.set_solout(solout)
+            solver.set_initial_value(last_y, last_t)
             solver.integrate(target)
-        if failure:
-            raise failure[0]
-        code = solver.get_return_code()
-        if state["hit"] is not None:
-            t_event, y_event, event = _locate(counted, switching, state, directions, rtol, atol, failure)
             if failure:
                 raise failure[0]
-            if outputs is None:                 # solve_ivp's convention: the event ends sol.t
-                times.append(t_event)
-                states.append(y_event)
-            return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_event,
-                           y_event, event, count[0], state["step"], steps,
-                           np.array(ends + [y_event]).T)
-        if code < 0:
-            raise IntegrationError(
-                f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
-                "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains"
-            )
-        state.update(t=target, y=np.array(solver.y, dtype=float))
-        if target in wanted:
-            times.append(target)
-            states.append(state["y"].copy())
+            code = solver.get_return_code()
+            if hit is not None:
+                t_event, y_event, event = _locate(counted, switching, (last_t, last_y, last_g), hit,
+                                                  directions, rtol, atol, failure)
+                if failure:
+                    raise failure[0]
+                if outputs is None:                 # solve_ivp's convention: the event ends sol.t
+                    times.append(t_event)
+                    states.append(y_event)
+                ends.append(y_event)
+                return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_event,
+                               y_event, event, count, last_step, steps, np.array(ends).T)
+            if code < 0:
+                raise IntegrationError(
+                    f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
+                    "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains"
+                )
+            last_t, last_y = target, np.array(solver.y, dtype=float)
+            if target in wanted:
+                times.append(target)
+                states.append(last_y.copy())
     return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_end,
-                   state["y"].copy(), None, count[0], state["step"], steps,
+                   last_y.copy(), None, count, last_step, steps,
                    np.array(ends).T)
 
 
@@ -266,7 +272,7 @@ def _refine(p, left, right, left_positive, g0, g1, d0, d1):
     return u
 
 
-def _locate(rhs, switching, state, directions, rtol, atol, failure):
+def _locate(rhs, switching, start, hit, directions, rtol, atol, failure):
     """The first zero inside the step that stopped the code: ``(t, y, index)``.
 
     Each switching function g_i is approximated over the step by the cubic
@@ -274,8 +280,8 @@ def _locate(rhs, switching, state, directions, rtol, atol, failure):
     rates along the flow, by a forward difference), which costs two right-hand
     sides and two more switching evaluations, and needs no interpolated states.
     """
-    ta, ya, ga = state["t"], state["y"], state["g"]
-    tb, yb, gb = state["hit"]
+    ta, ya, ga = start
+    tb, yb, gb = hit
     h = tb - ta
     eps = 1e-7 * max(abs(h), 1e-9)
     fa, fb = np.asarray(rhs(ta, ya)), np.asarray(rhs(tb, yb))
@@ -328,9 +334,7 @@ def _redo(rhs, ta, ya, t, rtol, atol):
     solver = ode(rhs).set_integrator("dop853", rtol=rtol, atol=atol, nsteps=DEFAULT_NSTEPS,
                                      first_step=t - ta)
     solver.set_initial_value(ya, ta)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
-        y = solver.integrate(t)
+    y = solver.integrate(t)                 # inside integrate_segment's catch_warnings
     if solver.get_return_code() < 0:
         raise IntegrationError(
             f"ode.dop853 failed at t = {solver.t:.6g} s while locating a switch: "

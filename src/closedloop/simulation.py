@@ -177,6 +177,13 @@ class SimulationResult:
         return self.sd[self.coordinate_names.index(name)]
 
 
+def _finite_and_positive(value):
+    """True for a finite number > 0, or an array of them (a float is checked without numpy)."""
+    if isinstance(value, float):
+        return math.isfinite(value) and value > 0
+    return bool(np.all(np.isfinite(value)) and np.all(np.asarray(value) > 0))
+
+
 def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, atol, t_eval,
               sticking_resolution, options, switching="events", max_nfev=None, max_steps=MAX_STEPS):
     for name, value in (("t_start", t_start), ("t_end", t_end)):
@@ -185,7 +192,7 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
     if not t_end > t_start:
         raise InputError(f"t_end: must be > t_start = {t_start:g}, got {t_end:g}")
     for name, value in (("rtol", rtol), ("atol", atol), ("sticking_resolution", sticking_resolution)):
-        if not (np.all(np.isfinite(value)) and np.all(np.asarray(value) > 0)):
+        if not _finite_and_positive(value):
             raise InputError(f"{name}: must be finite and > 0, got {value!r}")
     if not isinstance(formulation, _FORMULATIONS):
         raise InputError(
@@ -227,12 +234,13 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
     s0, sd0 = initial_state.s, initial_state.sd
     if s0.shape != (system.n,) or sd0.shape != (system.n,):
         raise InputError(f"initial_state: need {system.n} coordinates and {system.n} velocities")
-    if not (np.all(np.isfinite(s0)) and np.all(np.isfinite(sd0))):
+    if not (np.isfinite(s0).all() and np.isfinite(sd0).all()):
         raise InputError("initial_state: coordinates and velocities must be finite")
     f0, Phi0 = system.constraints_and_jacobian(s0)
-    scale = 1.0 + np.max(np.abs(s0))
-    errors = (np.linalg.norm(f0), np.linalg.norm(Phi0 @ sd0))
-    if errors[0] > INITIAL_TOLERANCE * scale or errors[1] > INITIAL_TOLERANCE * (1.0 + np.max(np.abs(sd0))):
+    scale = 1.0 + np.abs(s0).max()
+    velocity = Phi0 @ sd0
+    errors = (math.sqrt(f0 @ f0), math.sqrt(velocity @ velocity))       # the 2-norms, as np.linalg.norm
+    if errors[0] > INITIAL_TOLERANCE * scale or errors[1] > INITIAL_TOLERANCE * (1.0 + np.abs(sd0).max()):
         raise InputError(
             f"initial_state: not consistent (|f| = {errors[0]:.3g}, |f'| = {errors[1]:.3g}, allowed "
             f"<= {INITIAL_TOLERANCE:g}); build it with consistent_initial_state"
@@ -430,16 +438,13 @@ class _Run:
                     pass
         return self.system.constrained_accelerations(t, s, sd, mode)[0]
 
-    def _rate(self, t, s, sd, mode, i):
-        """dh_i/dt along the constrained motion (12) on branch ``mode``."""
-        sdd = self._accelerations(t, s, sd, mode)
+    def _side_rates(self, t, s, sd, mode, i):
+        """dh_i/dt along the constrained motion (12) with switch i off and on: ``(off, on)``."""
         h = self.force.switching_functions
         eps = 1e-7
-        return (h(t + eps, s + eps * sd, sd + eps * sdd)[i] - h(t, s, sd)[i]) / eps
-
-    def _side_rates(self, t, s, sd, mode, i):
-        off = self._rate(t, s, sd, mode[:i] + (False,) + mode[i + 1:], i)
-        on = self._rate(t, s, sd, mode[:i] + (True,) + mode[i + 1:], i)
+        h_now, s_ahead = h(t, s, sd)[i], s + eps * sd          # the same on both sides
+        off, on = ((h(t + eps, s_ahead, sd + eps * self._accelerations(t, s, sd, branch))[i] - h_now) / eps
+                   for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
         return off, on
 
     def _decide(self, t, s, sd, mode, i):
@@ -598,6 +603,8 @@ class _Run:
         return t_end, s_end, sd_end, event
 
     def _check_finite(self, t_out, y_out):
+        if np.isfinite(y_out).all():
+            return
         bad = ~np.all(np.isfinite(y_out), axis=0)
         if np.any(bad):
             k = int(np.argmax(bad))
@@ -621,6 +628,8 @@ class _Run:
         else:
             Phi_z = system.constraints_and_jacobian_many(segment.step_ends[:system.n])[1][:, system.z_index]
             det = np.linalg.det(np.moveaxis(Phi_z, 2, 0))
+        if (det > 0.0).all() or (det < 0.0).all():         # one sign along the whole segment
+            return
         flips = np.nonzero(np.sign(det[1:]) * np.sign(det[:-1]) < 0)[0]
         if flips.size:
             times = np.concatenate(([t0], t0 + np.cumsum(segment.steps), [segment.t_stop]))
@@ -699,13 +708,19 @@ class _Run:
         h = self.force.switching_functions if self.names else None
         stop_when = self.stop_when
 
-        def switching(t, y):
-            if h is None and stop_when is None:
-                return ()
-            s, sd = unpack(y, t)
-            values = h(t, s, sd) if h is not None else []
-            values = values.tolist() if isinstance(values, np.ndarray) else list(values)
-            return values + [stop_when(t, s, sd)] if stop_when is not None else values
+        if stop_when is None and h is not None:        # the common case, called after every step
+            def switching(t, y):
+                s, sd = unpack(y, t)
+                values = h(t, s, sd)
+                return values.tolist() if isinstance(values, np.ndarray) else list(values)
+        else:
+            def switching(t, y):
+                if h is None and stop_when is None:
+                    return ()
+                s, sd = unpack(y, t)
+                values = h(t, s, sd) if h is not None else []
+                values = values.tolist() if isinstance(values, np.ndarray) else list(values)
+                return values + [stop_when(t, s, sd)] if stop_when is not None else values
 
         directions = [-1.0 if on else 1.0 for on in mode[:len(self.names)]]
         if stop_when is not None:
