@@ -184,3 +184,24 @@ def test_the_baseline_keeps_its_own_methods_in_every_case():
         if case != settings.main_case:
             assert "LSODA" in settings.methods_of(case, BASELINE_KEY)
             assert "LSODA" not in settings.methods_of(case, "closed-form")
+
+
+@pytest.mark.parametrize("errors, rows_run", [
+    # errors that wander near rtol (the compiled DOP853 in case 1) are followed to the end
+    ((5.0e-5, 6.7e-5, 2.7e-7, 4.7e-7, 1.5e-7, 3.0e-9), 6),
+    # an error stuck far above rtol (drift, or the reference's floor): two flat rows end the curve
+    # (at rtol 1e-5 and 1e-6 the error is within 100 rtol, so those rows are not flat yet)
+    ((3e-4, 2e-5, 1.9e-5, 1.8e-5, 1.8e-5, 1.8e-5, 1e-9), 6),
+])
+def test_the_plateau_rule_stops_only_at_an_error_floor(monkeypatch, errors, rows_run):
+    import closedloop.benchmark as benchmark
+
+    rtols = tuple(10.0 ** -k for k in range(3, 3 + len(errors)))
+    measured = iter(errors)
+    monkeypatch.setattr(benchmark, "_measure", lambda entry, context, case, method, rtol, repeats: {
+        "rtol": rtol, "status": "ok", "cpu_s": 0.001, "error_t10": next(measured)})
+    settings = benchmark.StudySettings(rtols=rtols, repeats=1)
+    rows = benchmark._curve(None, None, 2, "DOP853", settings)
+    assert len(rows) == rows_run
+    assert rows[-1]["curve_end"] == ("tightest rtol" if rows_run == len(errors) else
+                                     f"error plateau: not halved for {settings.plateau} tolerances")

@@ -84,7 +84,7 @@ def _add_basin_parser(commands):
 
 def _add_benchmark_parser(commands):
     """The ``benchmark`` subcommand: error against run time (closedloop.benchmark)."""
-    from .benchmark import DEFAULT_SETTINGS, QUICK_SETTINGS
+    from .benchmark import DEFAULT_SETTINGS, PLATEAU_RATIO, QUICK_SETTINGS
 
     default, quick = DEFAULT_SETTINGS, QUICK_SETTINGS
     bench = commands.add_parser(
@@ -99,8 +99,8 @@ def _add_benchmark_parser(commands):
             "median process time of repeated 20 s runs.\n\n"
             "Pruning: along each curve (case, formulation, method) the tolerances go from loose to tight,\n"
             f"and the curve stops after a run whose CPU time exceeds a cap ({default.time_cap_s:g} s), after\n"
-            f"{default.plateau} tolerances in a row that do not halve its best error; a failed run is recorded\n"
-            "and the curve goes on.\n"
+            f"{default.plateau} tolerances in a row that do not halve its best error while it stays above\n"
+            f"{PLATEAU_RATIO:g} x rtol; a failed run is recorded and the curve goes on.\n"
             "The projection method runs only with RK45 and DOP853.\n\n"
             f"default: cases {', '.join(map(str, default.cases))}; in case {default.main_case} the methods "
             f"{', '.join(default.methods)},\n         in the others {', '.join(default.other_case_methods)} "
