@@ -506,9 +506,15 @@ def work_precision_figure(rows, case, entries=None):
     colours = _colours(labels)
     ok = [r for r in rows if r["case"] == case and r["status"] == "ok"]
     methods = [m for m in ALL_METHODS if any(r["method"] == m for r in ok)]
-    fig = Figure(figsize=(max(6.5, 3.2 * len(methods)), 3.8), layout="constrained")
-    axes = fig.subplots(1, len(methods), sharex=True, sharey=True, squeeze=False)[0]
-    for ax, method in zip(axes, methods):
+    columns = min(3, len(methods))                # a page is about 7 inches wide: at most 3 panels a row
+    rows_of_panels = -(-len(methods) // columns)
+    fig = Figure(figsize=(3.0 * columns + 0.8, 2.8 * rows_of_panels + 1.2), layout="constrained")
+    grid = fig.subplots(rows_of_panels, columns, sharex=True, sharey=True, squeeze=False)
+    axes = list(grid.flat)
+    for ax in axes[len(methods):]:
+        ax.set_visible(False)
+    axes = axes[:len(methods)]
+    for index, (ax, method) in enumerate(zip(axes, methods)):
         for label in labels:
             curve = [r for r in ok if r["method"] == method and r["label"] == label]
             if curve:
@@ -516,16 +522,19 @@ def work_precision_figure(rows, case, entries=None):
                           ms=3, lw=1.2, color=colours[label], label=label)
         ax.axhline(PERFORMANCE_TARGET, color="0.6", lw=0.8, ls=":")
         ax.set_title(method)
-        ax.set_xlabel("CPU time [s]")
+        if index + columns >= len(methods):       # the lowest panel of its column
+            ax.set_xlabel("CPU time [s]")
+            ax.xaxis.set_tick_params(labelbottom=True)
+        if index % columns == 0:
+            ax.set_ylabel("error at t = 10 s")
         _log_axes(ax)
-    axes[0].set_ylabel("error at t = 10 s")
     handles, names = axes[0].get_legend_handles_labels()
     for ax in axes[1:]:
         for h, n in zip(*ax.get_legend_handles_labels()):
             if n not in names:
                 handles.append(h)
                 names.append(n)
-    fig.legend(handles, names, loc="outside lower center", ncol=4, fontsize=8)
+    fig.legend(handles, names, loc="outside lower center", ncol=3, fontsize=8)
     fig.suptitle(f"Case {case}: work-precision, one curve per formulation and method")
     return fig
 
