@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-__all__ = ["Check", "NotAnswered", "numeric", "choice", "symbolic", "scaled", "make_check"]
+__all__ = ["Check", "NotAnswered", "numeric", "choice", "symbolic", "scaled", "another_letter", "make_check"]
 
 
 class NotAnswered(Exception):
@@ -114,6 +114,13 @@ def scaled(factor=1.5, shift=1.0):
     def wrong(expected):
         expected = np.asarray(expected, dtype=float)
         return expected * factor + shift + np.abs(expected)
+    return wrong
+
+
+def another_letter(letters="abc"):
+    """A wrong multiple-choice answer: the first of ``letters`` that is not the right one."""
+    def wrong(expected):
+        return next(letter for letter in letters if letter != str(expected).strip().lower())
     return wrong
 
 

@@ -7,7 +7,7 @@ import numpy as np
 from closedloop import consistent_initial_state
 from closedloop.slider_crank import slider_crank_model, slider_crank_system
 
-from . import Check, choice, make_check, numeric, scaled
+from . import Check, another_letter, choice, make_check, numeric, scaled
 
 
 def _degrees_of_freedom():
@@ -60,7 +60,7 @@ CHECKS = {
                  "the slider's extreme positions are the two dead centres, phi = 0 and phi = pi.", scaled()),
     "1.5": Check("1.5", _can_switch_branches, choice,
                  "how many solutions does sin psi = (l1/l2) sin phi have when l1 < l2, and do they ever meet?",
-                 lambda expected: "b" if expected == "a" else "a"),
+                 another_letter()),
 }
 
 check = make_check(CHECKS)

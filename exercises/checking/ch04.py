@@ -8,7 +8,7 @@ import sympy as sp
 from closedloop import Baumgarte, Orthogonal, derive, simulate
 from closedloop.slider_crank import CASES, initial_state, slider_crank_model, slider_crank_system
 
-from . import Check, choice, make_check, numeric, scaled, symbolic
+from . import Check, another_letter, choice, make_check, numeric, scaled, symbolic
 
 #: The configuration of exercise 4.1: not on the constraint manifold (27)-(28).
 OFF_MANIFOLD = (2.0, 2.9, 4.0)
@@ -80,7 +80,7 @@ CHECKS = {
     "4.5": Check("4.5", _why_R_removes_multipliers, choice,
                  "in (22), lambda enters only through the term Phi_s^T lambda: think about which directions "
                  "that term can point in, and what R^T does to those directions.",
-                 lambda expected: "b" if expected == "c" else "c"),
+                 another_letter()),
 }
 
 check = make_check(CHECKS)
