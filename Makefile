@@ -9,7 +9,8 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 # The execution cache notices edits to a notebook's own cells only: a change to the library,
 # the lock or the config must re-execute every chapter, so the cache is keyed on this hash too.
-SOURCE_HASH = $(shell cat $(sort $(wildcard src/closedloop/*.py exercises/checking/*.py)) pyproject.toml requirements/lock.txt _config.yml book/data/benchmark.json | sha256sum | cut -c1-16)
+# Every .py below src/ and exercises/checking, in subpackages too (find, not a one-level wildcard).
+SOURCE_HASH = $(shell cat $$(find src exercises/checking -name '*.py' -not -path '*/__pycache__/*' | LC_ALL=C sort) pyproject.toml requirements/lock.txt _config.yml book/data/benchmark.json | sha256sum | cut -c1-16)
 
 .PHONY: book test browser student benchmark benchmark-data clean
 

@@ -197,21 +197,26 @@ QUICK_SETTINGS = StudySettings(quick=True, cases=(2,), methods=("DOP853", "ode.d
 
 
 # -- provenance ------------------------------------------------------------------------------
-#: Modules of the package that cannot change a number of the study (output and examples only).
-_NOT_IN_FINGERPRINT = ("cli.py", "plotting.py", "examples.py")
+#: Paths in the package, relative to its root, that cannot change a number of the study (output
+#: and examples only); a folder named here leaves out everything below it.
+_NOT_IN_FINGERPRINT = ("cli.py", "plotting.py", "plotting", "examples.py", "four_bar.py")
+#: The package's root folder, wherever this module sits below it.
+_PACKAGE_ROOT = Path(__import__("closedloop").__file__).resolve().parent
 
 
 def source_fingerprint():
     """sha256 of the library's sources that can change the study's numbers.
 
-    Every ``closedloop/*.py`` except :data:`_NOT_IN_FINGERPRINT`, in name order,
-    each as its name and its bytes; so a new module counts too.
+    Every ``*.py`` below the package root, in subpackages too, except
+    :data:`_NOT_IN_FINGERPRINT`, in path order, each as its relative path and
+    its bytes; so a new module, or a module moved to another folder, counts too.
     """
     digest = hashlib.sha256()
-    for path in sorted(Path(__file__).parent.glob("*.py")):
-        if path.name in _NOT_IN_FINGERPRINT:
+    for path in sorted(_PACKAGE_ROOT.rglob("*.py")):
+        relative = path.relative_to(_PACKAGE_ROOT)
+        if relative.as_posix() in _NOT_IN_FINGERPRINT or relative.parts[0] in _NOT_IN_FINGERPRINT:
             continue
-        digest.update(path.name.encode() + b"\0" + path.read_bytes().replace(b"\r\n", b"\n") + b"\0")
+        digest.update(relative.as_posix().encode() + b"\0" + path.read_bytes().replace(b"\r\n", b"\n") + b"\0")
     return digest.hexdigest()
 
 
