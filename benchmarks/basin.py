@@ -14,7 +14,7 @@ wall, CPU
 agreement
     The reference classifies ``--sample`` cells drawn at random (seed
     ``--seed``), one :func:`closedloop.simulate` run per cell (Minimal, DOP853,
-    rtol = atol = 1e-10; :func:`closedloop.basin.reference_outcome`).  For every
+    rtol = atol = 1e-10; :func:`closedloop.studies.basin.reference_outcome`).  For every
     cell where map and reference disagree, the reference also classifies its
     four neighbours: the cell is "on the boundary" if one of them has the other
     outcome in the reference.
@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from closedloop.basin import basin_map, grid_values, reference_outcome
+from closedloop.studies.basin import basin_map, grid_values, reference_outcome
 from closedloop.slider_crank import slider_crank_system
 
 

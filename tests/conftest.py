@@ -7,7 +7,7 @@ import pytest
 import sympy as sp
 
 from closedloop import MultibodyModel, System
-from closedloop.examples import four_bar_model
+from closedloop.four_bar import four_bar_model
 from closedloop.slider_crank import slider_crank_system
 
 
@@ -55,6 +55,6 @@ def random_states(count, seed):
 
 @pytest.fixture(scope="session")
 def four_bar():
-    """The library's example four-bar linkage (closedloop.examples), with a Grashof crank-rocker's data."""
+    """The library's example four-bar linkage (closedloop.four_bar), with a Grashof crank-rocker's data."""
     return System(four_bar_model(), {"l0": 4.0, "l1": 1.0, "l2": 3.5, "l3": 3.0,
                                      "m1": 1.0, "m2": 3.0, "m3": 2.5, "g": 9.81})

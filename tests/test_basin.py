@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from closedloop import Minimal, simulate
-from closedloop.basin import (basin_map, boundary_cells, compare_outcomes, grid_values, integrate_outcomes,
+from closedloop.studies.basin import (basin_map, boundary_cells, compare_outcomes, grid_values, integrate_outcomes,
                               reference_outcome, reference_outcomes)
 from closedloop.cli import main
 from closedloop.errors import InputError

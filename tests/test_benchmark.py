@@ -12,7 +12,7 @@ import re
 
 import pytest
 
-from closedloop.benchmark import (BASELINE_KEY, QUICK_SETTINGS, cheapest_choices, performance_ratios,
+from closedloop.studies.benchmark import (BASELINE_KEY, QUICK_SETTINGS, cheapest_choices, performance_ratios,
                                   source_fingerprint, study_entries)
 from closedloop.cli import main
 
@@ -146,7 +146,7 @@ def test_error_t10_comes_from_the_timed_run_whose_cpu_time_is_recorded():
     import numpy as np
 
     from closedloop import simulate
-    from closedloop.benchmark import _Context, _measure, _reference
+    from closedloop.studies.benchmark import _Context, _measure, _reference
     from closedloop.formulations import ClosedForm
     from closedloop.slider_crank import get_case, initial_state, slider_crank_system
 
@@ -177,7 +177,7 @@ def test_error_t10_comes_from_the_timed_run_whose_cpu_time_is_recorded():
 def test_the_baseline_keeps_its_own_methods_in_every_case():
     """The other cases run fewer methods; the baseline keeps LSODA there, its best in case 2,
     so that the library's speed-up in those cases is not measured against a handicapped rival."""
-    from closedloop.benchmark import DEFAULT_SETTINGS as settings
+    from closedloop.studies.benchmark import DEFAULT_SETTINGS as settings
 
     assert settings.methods_of(settings.main_case, BASELINE_KEY) == settings.methods
     for case in settings.cases:
@@ -194,7 +194,7 @@ def test_the_baseline_keeps_its_own_methods_in_every_case():
     ((3e-4, 2e-5, 1.9e-5, 1.8e-5, 1.8e-5, 1.8e-5, 1e-9), 6),
 ])
 def test_the_plateau_rule_stops_only_at_an_error_floor(monkeypatch, errors, rows_run):
-    import closedloop.benchmark as benchmark
+    import closedloop.studies.benchmark as benchmark
 
     rtols = tuple(10.0 ** -k for k in range(3, 3 + len(errors)))
     measured = iter(errors)

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from closedloop import __version__
-from closedloop.benchmark import DEFAULT_SETTINGS, source_fingerprint, study_entries
+from closedloop.studies.benchmark import DEFAULT_SETTINGS, source_fingerprint, study_entries
 
 DATA = Path(__file__).resolve().parents[1] / "book" / "data" / "benchmark.json"
 REGENERATE = "regenerate it with `make benchmark-data` (closedloop benchmark --json book/data/benchmark.json)"

@@ -74,7 +74,7 @@ def test_closed_form_simulation_matches_baumgarte_step_for_step(slider_crank):
 def test_the_folded_right_hand_side_equals_the_closed_form_plus_the_force_call(slider_crank, alpha, beta, mode):
     """closed_form_rhs folds the gas force (sympy, per branch) and the gains into one function; the
     reference is the generic closed form with the force evaluated by GasForce.components."""
-    from closedloop.closed_form import closed_form_accelerations, closed_form_rhs
+    from closedloop.formulations.closed_form import closed_form_accelerations, closed_form_rhs
 
     folded = closed_form_rhs(slider_crank, mode, alpha, beta)
     unfolded = closed_form_accelerations(slider_crank)
@@ -91,7 +91,7 @@ def test_the_folded_right_hand_side_equals_the_closed_form_plus_the_force_call(s
 
 
 def test_folded_functions_are_shared_by_branches_with_the_same_force_and_missing_forms_fall_back(slider_crank):
-    from closedloop.closed_form import closed_form_rhs
+    from closedloop.formulations.closed_form import closed_form_rhs
     from closedloop.forces import SwitchedForce
     from closedloop.model import System
 
@@ -114,7 +114,7 @@ def test_folded_functions_are_shared_by_branches_with_the_same_force_and_missing
 
 @pytest.mark.parametrize("which", ["slider_crank", "four_bar"])
 def test_the_generated_partition_determinant_is_det_phi_z(which, request):
-    from closedloop.closed_form import partition_determinant
+    from closedloop.formulations.closed_form import partition_determinant
 
     system = request.getfixturevalue(which)
     rng = np.random.default_rng(8)

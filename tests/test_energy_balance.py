@@ -1,4 +1,4 @@
-"""The works of the drive torque and the gas force (closedloop.energy), checked independently."""
+"""The works of the drive torque and the gas force (closedloop.studies.energy), checked independently."""
 
 import math
 
@@ -7,7 +7,7 @@ import pytest
 import sympy as sp
 
 from closedloop import Baumgarte, Minimal, simulate
-from closedloop.energy import (_outward_increments, crank_landscape, energy_balance_error, gas_outward_work,
+from closedloop.studies.energy import (_outward_increments, crank_landscape, energy_balance_error, gas_outward_work,
                                gas_work_per_cycle, non_conservative_work, torque_work_per_turn)
 from closedloop.slider_crank import CASES, SliderCrankParameters, gas_force, initial_state, slider_crank_system
 

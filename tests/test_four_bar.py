@@ -15,7 +15,7 @@ from scipy.integrate import solve_ivp
 
 from closedloop import (Augmented, Baumgarte, ClosedForm, Minimal, NullSpace, Orthogonal, SingularConfigurationError,
                         System, consistent_initial_state, derive, simulate)
-from closedloop.examples import four_bar_model, parameter_values
+from closedloop.four_bar import four_bar_model, parameter_values
 from closedloop.kinematics import solve_dependent
 from closedloop.plotting import animate_four_bar, four_bar_points
 from closedloop.simulation import BRANCH_LIMIT

@@ -6,7 +6,7 @@ import numpy as np
 import sympy as sp
 
 from closedloop import Baumgarte, System, consistent_initial_state, simulate
-from closedloop.examples import four_bar_model
+from closedloop.four_bar import four_bar_model
 from closedloop.slider_crank import (CASES, initial_state, slider_crank_model,
                                      slider_crank_system)
 

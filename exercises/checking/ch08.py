@@ -4,7 +4,7 @@ import numpy as np
 import sympy as sp
 
 from closedloop import Augmented, Minimal, Projected, derive, project_state, simulate
-from closedloop.benchmark import DEFAULT_SETTINGS, study_entries
+from closedloop.studies.benchmark import DEFAULT_SETTINGS, study_entries
 from closedloop.slider_crank import CASES, initial_state, slider_crank_model, slider_crank_system
 
 from . import Check, another_letter, choice, make_check, numeric, scaled, symbolic

@@ -6,7 +6,7 @@ from functools import lru_cache
 import numpy as np
 
 from closedloop import Baumgarte, simulate
-from closedloop.energy import crank_landscape, energy_balance_error, gas_outward_work, non_conservative_work
+from closedloop.studies.energy import crank_landscape, energy_balance_error, gas_outward_work, non_conservative_work
 from closedloop.slider_crank import CASES, TORQUE_RIPPLE, initial_state, slider_crank_system
 
 from . import Check, another_letter, choice, make_check, numeric

@@ -6,7 +6,7 @@ import numpy as np
 import sympy as sp
 
 from closedloop import Minimal, derive
-from closedloop.basin import integrate_outcomes
+from closedloop.studies.basin import integrate_outcomes
 from closedloop.slider_crank import CASES, initial_state, slider_crank_model, slider_crank_system
 
 from . import Check, another_letter, choice, make_check, numeric, scaled, symbolic

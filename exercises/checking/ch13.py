@@ -7,7 +7,7 @@ import sympy as sp
 
 from closedloop import (Minimal, NullSpace, SingularConfigurationError, System, consistent_initial_state, derive,
                         simulate)
-from closedloop.examples import four_bar_model, parameter_values
+from closedloop.four_bar import four_bar_model, parameter_values
 
 from . import Check, another_letter, choice, make_check, numeric, scaled, symbolic
 

@@ -7,15 +7,18 @@ docstrings are the paper's.
 
 from .errors import (ClosedLoopError, ConvergenceError, InputError, IntegrationError,
                      SingularConfigurationError)
-from .formulations import (Augmented, Baumgarte, ClosedForm, Minimal, NullSpace, Orthogonal, baumgarte_from_step,
-                           baumgarte_p2, formulation_from_name, null_space_basis)
+from .formulations import (Augmented, Baumgarte, ClosedForm, Minimal, NullSpace, Orthogonal, Projected,
+                           baumgarte_from_step, baumgarte_p2, formulation_from_name, project_state)
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
+from .linalg import null_space_basis
 from .model import DerivedModel, MultibodyModel, System, derive
-from .projection import Projected, project_state
 from .simulation import SimulationResult, simulate
 
+from . import _moved
+
 __version__ = "0.1.0"
+_moved.install(__name__)
 
 __all__ = [
     "Augmented", "Baumgarte", "Orthogonal", "Minimal", "baumgarte_from_step", "baumgarte_p2", "formulation_from_name",

@@ -11,7 +11,7 @@ error, plus the work of the constraint forces on a drifting ``f' != 0``.
 Here W comes from the run itself: ``simulate(..., work=True)`` integrates it as
 one more state, by the same method and tolerances, so this works for any
 :class:`~closedloop.model.System` and any applied force.  For the slider-crank,
-:mod:`closedloop.energy` computes the same two works after the run instead, in
+:mod:`closedloop.studies.energy` computes the same two works after the run instead, in
 closed form, independently of the integrator (chapter 11); chapter 9 uses this
 module because its runs include formulations and systems that module does not cover.
 """

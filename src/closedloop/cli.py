@@ -83,8 +83,8 @@ def _add_basin_parser(commands):
 
 
 def _add_benchmark_parser(commands):
-    """The ``benchmark`` subcommand: error against run time (closedloop.benchmark)."""
-    from .benchmark import DEFAULT_SETTINGS, PLATEAU_RATIO, QUICK_SETTINGS
+    """The ``benchmark`` subcommand: error against run time (closedloop.studies.benchmark)."""
+    from .studies.benchmark import DEFAULT_SETTINGS, PLATEAU_RATIO, QUICK_SETTINGS
 
     default, quick = DEFAULT_SETTINGS, QUICK_SETTINGS
     bench = commands.add_parser(
@@ -231,7 +231,7 @@ def run_basin(args, progress=None):
     """Carry out ``closedloop basin``; returns the BasinMap."""
     import os
 
-    from .basin import DEFAULT_STEP, basin_map, grid_values
+    from .studies.basin import DEFAULT_STEP, basin_map, grid_values
 
     phi_start, phi_stop, n = parse_range("phi0", args.phi0)
     if phi_start < 0 or phi_stop > 2 * math.pi * (1 + 1e-12):
@@ -335,7 +335,7 @@ def run_benchmark(args):
     """Carry out ``closedloop benchmark``; returns the text to print."""
     from pathlib import Path
 
-    from .benchmark import (DEFAULT_SETTINGS, QUICK_SETTINGS, format_table, pareto_figure, residual_figure,
+    from .studies.benchmark import (DEFAULT_SETTINGS, QUICK_SETTINGS, format_table, pareto_figure, residual_figure,
                             residual_traces, run_study, work_precision_figure)
 
     if args.json is not None and not Path(args.json).resolve().parent.is_dir():

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model import _orthogonal_complement
+from .linalg import orthogonal_complement
 
 __all__ = ["Conditioning", "conditioning", "augmented_matrix", "equilibration", "generalized_mass"]
 
@@ -50,7 +50,7 @@ def equilibration(M, Phi):
 def generalized_mass(system, s):
     """``R^T M R`` of the orthogonality theorem (18)-(20): the mass matrix in the independent coordinates q."""
     M, _, _, Phi, _ = system.dynamics(0.0, np.asarray(s, dtype=float), np.zeros(system.n), None)
-    R = _orthogonal_complement(Phi, system.q_index, system.z_index)
+    R = orthogonal_complement(Phi, system.q_index, system.z_index)
     return R.T @ M @ R
 
 
@@ -82,7 +82,7 @@ def conditioning(system, s):
     M, _, _, Phi, _ = system.dynamics(0.0, s, np.zeros(system.n), None)
     K = augmented_matrix(M, Phi)
     D = equilibration(M, Phi)
-    R = _orthogonal_complement(Phi, system.q_index, system.z_index)
+    R = orthogonal_complement(Phi, system.q_index, system.z_index)
     A = np.vstack((R.T @ M, Phi))
     return Conditioning(mass=float(np.linalg.cond(M)), augmented=float(np.linalg.cond(K)),
                         equilibrated=float(np.linalg.cond(D[:, None] * K * D[None, :])),

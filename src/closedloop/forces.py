@@ -56,7 +56,7 @@ class SwitchedForce:
         """The force on branch ``mode`` as n sympy expressions, or None (the default) if it has none.
 
         ``time``, ``coordinates`` and ``velocities`` are the model's symbols.
-        :func:`closedloop.closed_form.closed_form_rhs` folds these expressions
+        :func:`closedloop.formulations.closed_form.closed_form_rhs` folds these expressions
         into its generated right-hand side; they must equal :meth:`__call__` on
         that branch.
         """

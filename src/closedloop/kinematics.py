@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import ConvergenceError, InputError, SingularConfigurationError, at_time
-from .model import solve_small
+from .linalg import orthogonal_complement, solve_small
 
 __all__ = ["solve_dependent", "dependent_velocities", "consistent_initial_state", "InitialState"]
 
@@ -86,9 +86,8 @@ def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
 
 def dependent_velocities(system, s, qd, t=None):
     """Velocities ``s'`` with ``z' = -Phi_z^{-1} Phi_q q'`` from (9), i.e. ``s' = R q'`` (20)."""
-    from .model import _orthogonal_complement
 
-    R = _orthogonal_complement(system.jacobian(s), system.q_index, system.z_index, t)
+    R = orthogonal_complement(system.jacobian(s), system.q_index, system.z_index, t)
     return R @ np.asarray(qd, dtype=float)
 
 

@@ -24,6 +24,7 @@ import numpy as np
 import sympy as sp
 
 from .errors import InputError, SingularConfigurationError, at_time
+from .linalg import CONDITION_LIMIT, condition_number, orthogonal_complement, solve_augmented
 
 __all__ = ["MultibodyModel", "DerivedModel", "derive", "System", "array_functions", "condition_number", "CONDITION_LIMIT"]
 
@@ -280,6 +281,9 @@ class System:
         self.n = len(model.coordinates)
         self.r = len(model.constraints)
         self.f = self.n - self.r
+        #: Functions generated for this system (closed forms, determinants), kept by their makers
+        #: under their own keys: built once per system, never shared between systems.
+        self.generated = {}
 
     # -- numeric building blocks ------------------------------------------------
     def dynamics(self, t, s, sd, mode=None):
@@ -384,7 +388,7 @@ class System:
         Satisfies Phi_s R = 0 (18).  Raises
         :class:`~closedloop.errors.SingularConfigurationError` if Phi_z is singular.
         """
-        return _orthogonal_complement(self.jacobian(s), self.q_index, self.z_index)
+        return orthogonal_complement(self.jacobian(s), self.q_index, self.z_index)
 
     def energy(self, s, sd):
         """T + Pi at one state or at many (arrays of shape (n, N))."""
@@ -415,98 +419,3 @@ def _generalized_force_function(model):
     """The model's smooth generalised forces tau(t, s, s') as a numeric function (math module)."""
     args = [model.time, list(model.coordinates), list(model.velocities), list(model.parameters)]
     return sp.lambdify(args, list(model.generalized_forces), modules="math")
-
-
-def solve_augmented(M, Phi, p1, p2, t=None):
-    """Solve ``[[M, Phi^T], [Phi, 0]] [s''; lambda] = [p1; p2]`` (12), (16)."""
-    n, r = M.shape[0], Phi.shape[0]
-    K = np.zeros((n + r, n + r))
-    K[:n, :n] = M
-    K[:n, n:] = Phi.T
-    K[n:, :n] = Phi
-    try:
-        x = np.linalg.solve(K, np.concatenate((p1, p2)))
-    except np.linalg.LinAlgError:
-        raise SingularConfigurationError(
-            f"the augmented matrix of (12) is singular{at_time(t)}: the constraints are dependent "
-            "(a kinematic singularity, cond(Phi_s) = inf); try the minimal formulation or other coordinates"
-        ) from None
-    return x[:n], x[n:]
-
-
-#: |det| / |A|_F^2 at or below which a 2 x 2 matrix counts as singular (cond(A) >~ 1/this).
-SINGULAR_TOLERANCE = 1e-14
-
-
-def solve_small(A, b):
-    """Solve ``A x = b`` for a square A; closed form for 1 x 1 and 2 x 2.
-
-    numpy's solver costs a few microseconds of overhead per call, more than the
-    arithmetic of a 2 x 2 system: the minimal formulation makes several such
-    solves per right-hand-side evaluation.  Raises ``numpy.linalg.LinAlgError``
-    for a singular A, like numpy, and also for a 2 x 2 A that is singular to
-    working precision (``|det A|`` at most ``SINGULAR_TOLERANCE`` times the squared
-    Frobenius norm of A, i.e. cond(A) of order 1e14 or more), whose solution is
-    round-off only: at a change point of a linkage, rounding leaves such a
-    determinant of about 1e-16 instead of 0.
-    """
-    size = A.shape[0]
-    if size == 1:
-        a = A[0, 0]
-        if a == 0.0 or not np.isfinite(a):
-            raise np.linalg.LinAlgError("Singular matrix")
-        return b / a
-    if size == 2:
-        a, c, d, e = A[0, 0], A[0, 1], A[1, 0], A[1, 1]
-        det = a * e - c * d
-        if not np.isfinite(det) or abs(det) <= SINGULAR_TOLERANCE * (a * a + c * c + d * d + e * e):
-            raise np.linalg.LinAlgError("Singular matrix")
-        return np.array([e * b[0] - c * b[1], a * b[1] - d * b[0]]) / det
-    return np.linalg.solve(A, b)
-
-
-#: cond(Phi_z) above which R of (20) is refused: its entries then keep fewer than
-#: about 16 - log10(1e10) = 6 significant digits, fewer than any tolerance in this book.
-CONDITION_LIMIT = 1e10
-
-
-def condition_number(A):
-    """The 2-norm condition number sigma_max / sigma_min of a matrix (``inf`` if singular).
-
-    Closed form for 1 x 1 and 2 x 2 matrices (cheap enough to check at every
-    right-hand-side evaluation), singular values otherwise.
-    """
-    A = np.asarray(A, dtype=float)
-    if A.shape == (1, 1):
-        return 1.0 if A[0, 0] != 0.0 else math.inf
-    if A.shape == (2, 2):
-        det = abs(A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0])
-        frobenius2 = float(np.sum(A * A))
-        if det == 0.0:
-            return math.inf
-        # sigma_1^2 + sigma_2^2 = |A|_F^2 and sigma_1 sigma_2 = |det A|
-        root = math.sqrt(max(frobenius2 * frobenius2 - 4.0 * det * det, 0.0))
-        return (frobenius2 + root) / (2.0 * det)
-    singular_values = np.linalg.svd(A, compute_uv=False)
-    return math.inf if singular_values[-1] == 0.0 else float(singular_values[0] / singular_values[-1])
-
-
-def _orthogonal_complement(Phi, q_index, z_index, t=None):
-    """R of (20) from Phi_s, in the order of s; see :meth:`System.orthogonal_complement`.
-
-    Raises :class:`~closedloop.errors.SingularConfigurationError` when
-    cond(Phi_z) exceeds :data:`CONDITION_LIMIT`.
-    """
-    Phi_q, Phi_z = Phi[:, q_index], Phi[:, z_index]
-    condition = condition_number(Phi_z)
-    if condition > CONDITION_LIMIT:
-        raise SingularConfigurationError(
-            f"Phi_z is singular{at_time(t)}: cond(Phi_z) = {condition:.3g} > {CONDITION_LIMIT:.0e}, so R of "
-            "(20) does not exist at this configuration (a dead position of the independent coordinates); "
-            "use the NullSpace formulation, which needs no partition"
-        )
-    X = solve_small(Phi_z, Phi_q)
-    R = np.empty((Phi.shape[1], len(q_index)))
-    R[q_index] = np.eye(len(q_index))
-    R[z_index] = -X
-    return R

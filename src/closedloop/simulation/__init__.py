@@ -54,23 +54,18 @@ import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau, solve_ivp
 from scipy.optimize import brentq
 
-from . import ode_dop853
-from .closed_form import closed_form_rhs, partition_determinant
-from .errors import InputError, IntegrationError, SingularConfigurationError
-from .formulations import Augmented, Baumgarte, ClosedForm, Minimal, NullSpace, Orthogonal
-from .kinematics import InitialState
-from .projection import Projected
+from ..errors import InputError, IntegrationError, SingularConfigurationError
+from ..formulations import Baumgarte, Formulation
+from ..formulations.closed_form import partition_determinant
+from ..kinematics import InitialState
+from . import dop853 as ode_dop853
 
 __all__ = ["simulate", "SimulationResult", "SwitchEvent", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT"]
 
 #: The methods simulate() accepts by name: solve_ivp's, and "ode.dop853", the compiled DOP853
-#: of scipy.integrate.ode with events added by :mod:`closedloop.ode_dop853`.  An OdeSolver
+#: of scipy.integrate.ode with events added by :mod:`closedloop.simulation.dop853`.  An OdeSolver
 #: subclass is accepted too.
 SOLVER_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", ode_dop853.METHOD)
-_FORMULATIONS = (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, ClosedForm, Projected)
-#: Formulations that stop by themselves at det Phi_z = 0 (they divide by it or guard it), the
-#: only ones "ode.dop853" takes: it has no dense output to locate the branch guard's zeros.
-_GUARDED_BY_THEMSELVES = (ClosedForm, Orthogonal, Minimal)
 #: How switched forces are handled: with events and the sticking rule, or naively.
 SWITCHING = ("events", "naive")
 #: Kantorovich number above which a crossing of det Phi_z = 0 is refused (see "Branch guard").
@@ -194,13 +189,12 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
     for name, value in (("rtol", rtol), ("atol", atol), ("sticking_resolution", sticking_resolution)):
         if not _finite_and_positive(value):
             raise InputError(f"{name}: must be finite and > 0, got {value!r}")
-    if not isinstance(formulation, _FORMULATIONS):
+    if not isinstance(formulation, Formulation):
         raise InputError(
-            "formulation: expected Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, ClosedForm or "
-            f"Projected, got {formulation!r}"
+            "formulation: expected a Formulation (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, "
+            f"ClosedForm or Projected), got {formulation!r}"
         )
-    if isinstance(formulation, Projected):
-        formulation.check_method(method)
+    formulation.check_method(method)
     if switching not in SWITCHING:
         raise InputError(f"switching: unknown {switching!r}; choose one of {', '.join(SWITCHING)}")
     if max_nfev is not None and not (isinstance(max_nfev, (int, np.integer)) and max_nfev > 0):
@@ -211,7 +205,7 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
         if switching == "naive":
             raise InputError(f"method: switching='naive' runs on solve_ivp; choose one of "
                              f"{', '.join(SOLVER_METHODS[:-1])}")
-        if not isinstance(formulation, _GUARDED_BY_THEMSELVES):
+        if not formulation.guards_partition:
             raise InputError(
                 f"method: {method} has no dense output for the branch guard, so it takes only formulations "
                 "that cannot cross det Phi_z = 0 unnoticed (ClosedForm, Orthogonal, Minimal); use a "
@@ -219,8 +213,6 @@ def _validate(system, initial_state, t_start, t_end, formulation, method, rtol, 
             )
     if not (method in SOLVER_METHODS or (isinstance(method, type) and issubclass(method, OdeSolver))):
         raise InputError(f"method: unknown {method!r}; choose one of {', '.join(SOLVER_METHODS)}")
-    if isinstance(formulation, Projected):
-        formulation.check_method(method)
     reserved = {"events", "dense_output", "args", "vectorized"} & set(options)
     if reserved:
         raise InputError(f"solver options: {sorted(reserved)} are managed by simulate()")
@@ -271,7 +263,7 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
         Default ``Baumgarte(5, 5)``, Baumgarte's own choice.
     method : str or OdeSolver, optional
         Any solve_ivp method; default "RK45".  Projected takes only RK23, RK45
-        and DOP853 (see :mod:`closedloop.projection`).
+        and DOP853 (see :mod:`closedloop.formulations.projected`).
     rtol, atol : float, optional
         Tolerances passed to solve_ivp, > 0.
     t_eval : array_like, optional
@@ -429,13 +421,12 @@ class _Run:
         solving the augmented matrix); else, or where det Phi_z = 0, from the
         augmented solve.
         """
-        if isinstance(self.formulation, ClosedForm):
-            rhs = closed_form_rhs(self.system, mode, 0.0, 0.0)
-            if rhs is not None:
-                try:
-                    return np.array(rhs(t, np.concatenate((s, sd)))[self.system.n:])
-                except SingularConfigurationError:
-                    pass
+        fast = self.formulation.switch_accelerations(self.system, mode)
+        if fast is not None:
+            try:
+                return fast(t, s, sd)
+            except SingularConfigurationError:
+                pass
         return self.system.constrained_accelerations(t, s, sd, mode)[0]
 
     def _side_rates(self, t, s, sd, mode, i):
@@ -535,7 +526,7 @@ class _Run:
         if self.stop_when is not None:
             events.append(self._stop_event(unpack))
         terminal = len(events)
-        if not isinstance(formulation, Minimal):     # Minimal guards its branch itself
+        if not formulation.guards_branch:           # else the formulation guards its branch itself
             events.append(self._branch_event(unpack))
         t_eval = None
         if self.t_eval is not None:
@@ -561,8 +552,7 @@ class _Run:
                 return np.full(y.size, np.nan)
 
         try:
-            integrator = getattr(formulation, "integrator", None)   # Projected resets the state after each step
-            base = self.method if integrator is None else integrator(system, self.method)
+            base = formulation.integrator(system, self.method)   # Projected resets the state after each step
             sol = solve_ivp(guarded_rhs, (t0, self.t_end), y0, method=self.budget.solver(base),
                             rtol=self.rtol, atol=self.atol, t_eval=t_eval, events=events or None,
                             **self.options)
@@ -658,10 +648,7 @@ class _Run:
         return np.append(y0, self.work_done), rhs_with_work, unpack_with_work
 
     def _state_names(self, size):
-        names = [str(c) for c in self.system.model.coordinates]
-        if isinstance(self.formulation, Minimal):
-            names = [names[i] for i in self.system.q_index]
-        names = names + [f"d{name}/dt" for name in names]
+        names = self.formulation.state_names(self.system)
         return names + ["W"] * (size - len(names))
 
     def _advice(self):
@@ -669,8 +656,8 @@ class _Run:
         tries = []
         if self.method_name not in _IMPLICIT:
             tries.append("an implicit method (Radau, BDF or LSODA)")
-        gains = getattr(self.formulation, "alpha", None), getattr(self.formulation, "beta", None)
-        if gains[0] is not None and max(gains) > 20.0:
+        gains = self.formulation.gains
+        if gains is not None and max(gains) > 20.0:
             tries.append(f"smaller Baumgarte gains than alpha = {gains[0]:g}, beta = {gains[1]:g} "
                          "(the paper's range is 1 to 20)")
         tries.append("looser tolerances than rtol = {:g}, atol = {:g}".format(
@@ -702,7 +689,7 @@ class _Run:
         return f"{text}; {advice}"
 
     def _compiled_segment(self, t0, s0, sd0, mode):
-        """_segment with the compiled DOP853 of scipy.integrate.ode (see closedloop.ode_dop853)."""
+        """_segment with the compiled DOP853 of scipy.integrate.ode (see closedloop.simulation.dop853)."""
         system, formulation = self.system, self.formulation
         y0, unpack, rhs = self._start(s0, sd0, mode)
         h = self.force.switching_functions if self.names else None
@@ -750,7 +737,7 @@ class _Run:
         self.budget.steps.extend(segment.steps)
         self.budget.t = segment.t_stop
         self._check_finite(segment.t, segment.y)
-        if not isinstance(formulation, Minimal):            # Minimal guards its branch itself
+        if not formulation.guards_branch:                   # else the formulation guards it itself
             self._check_partition(segment, t0)
         outputs_unpack = formulation.unpacker(system)
         outputs_unpack.seed(s0)

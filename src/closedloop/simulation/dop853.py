@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import ode
 
-from .errors import IntegrationError
+from ..errors import IntegrationError
 
 __all__ = ["METHOD", "ALLOWED_OPTIONS", "integrate_segment", "Segment"]
 

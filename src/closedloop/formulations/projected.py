@@ -32,10 +32,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import DOP853, RK23, RK45
 
-from .errors import ConvergenceError, InputError, SingularConfigurationError, at_time
-from .formulations import Augmented
-from .kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE
-from .model import solve_small
+from ..errors import ConvergenceError, InputError, SingularConfigurationError, at_time
+from ..kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE
+from ..linalg import solve_small
+from .redundant import Augmented
 
 __all__ = ["Projected", "project_state", "PROJECTABLE_METHODS"]
 
@@ -161,8 +161,7 @@ class Projected(Augmented):
 
     name = "projected"
 
-    @staticmethod
-    def check_method(method):
+    def check_method(self, method):
         """Raise InputError unless ``method`` names a method whose state can be reset."""
         if method not in PROJECTABLE_METHODS:
             shown = method if isinstance(method, str) else getattr(method, "__name__", repr(method))

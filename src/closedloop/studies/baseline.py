@@ -3,7 +3,7 @@
 Most readers who meet a closed-loop mechanism in Python write it with
 ``sympy.physics.mechanics`` and integrate it with ``scipy.integrate.solve_ivp``.
 This module does exactly that, with nothing taken from closedloop's own
-derivation or simulation loop, so that the benchmark (:mod:`closedloop.benchmark`)
+derivation or simulation loop, so that the benchmark (:mod:`closedloop.studies.benchmark`)
 can compare the library with what a reader would otherwise have:
 
 - ``dynamicsymbols`` phi, psi, x_C; T and Pi typed in from section 3 of the
@@ -29,8 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from .errors import InputError, IntegrationError
-from .slider_crank import DEFAULT_READING, OMEGA, TORQUE_RIPPLE, SliderCrankParameters, get_reading
+from ..errors import InputError, IntegrationError
+from ..slider_crank import DEFAULT_READING, OMEGA, TORQUE_RIPPLE, SliderCrankParameters, get_reading
 
 __all__ = ["LagrangesBaseline", "BaselineResult"]
 

@@ -49,9 +49,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import ConvergenceError, InputError, IntegrationError, SingularConfigurationError
-from .kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE
-from .slider_crank import MOTIONS, initial_state, motion_codes, slider_crank_system
+from ..errors import ConvergenceError, InputError, IntegrationError, SingularConfigurationError
+from ..kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE
+from ..linalg import solve_many
+from ..slider_crank import MOTIONS, initial_state, motion_codes, slider_crank_system
 
 __all__ = ["BasinMap", "basin_map", "integrate_outcomes", "reference_outcomes", "boundary_cells",
            "compare_outcomes", "Agreement", "DEFAULT_STEP", "grid_values"]
@@ -75,29 +76,6 @@ def grid_values(start, stop, count):
     cell centred on it.
     """
     return start + (stop - start) * np.arange(count) / count
-
-
-def _solve_many(A, b):
-    """Solve ``A[:, :, j] x[:, j] = b[:, j]`` for every j; A of shape (m, m, K), b of shape (m, K)."""
-    m = A.shape[0]
-    if m == 1:
-        det = A[0, 0]
-        bad = det == 0.0
-        x = b / np.where(bad, 1.0, det)
-    elif m == 2:
-        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
-        bad = det == 0.0
-        det = np.where(bad, 1.0, det)
-        x = np.array([A[1, 1] * b[0] - A[0, 1] * b[1], A[0, 0] * b[1] - A[1, 0] * b[0]]) / det
-    else:
-        A_stack = np.moveaxis(A, -1, 0)
-        bad = np.linalg.det(A_stack) == 0.0
-        x = np.linalg.solve(np.where(bad[:, None, None], np.eye(m), A_stack), b.T[:, :, None])[:, :, 0].T
-    if np.any(bad):
-        raise SingularConfigurationError(
-            "Phi_z is singular at some cells of the batch: R of (20) does not exist there"
-        )
-    return x
 
 
 class _Model:
@@ -125,7 +103,7 @@ class _Model:
             scale = 1.0 + np.abs(s).max(axis=0)
             if np.all(np.abs(f).max(axis=0) <= NEWTON_TOLERANCE * scale):
                 return s, Phi
-            step = _solve_many(Phi[:, zi], f)
+            step = solve_many(Phi[:, zi], f)
             s[zi] -= step
             if not np.all(np.isfinite(s)):
                 break
@@ -151,13 +129,13 @@ class _Model:
         size = s.shape[1]
         R = np.empty((system.n, size))
         R[self.q] = 1.0
-        R[zi] = -_solve_many(Phi[:, zi], Phi[:, [self.q]][:, 0])      # (20)
+        R[zi] = -solve_many(Phi[:, zi], Phi[:, [self.q]][:, 0])      # (20)
         sd = R * qd
         M, p1, _, _, gamma = system.dynamics_many(t, s, sd)
         if self.force is not None:
             p1 = p1 + self.force.many(t, s, sd, mode)
         c = np.zeros((system.n, size))
-        c[zi] = _solve_many(Phi[:, zi], -gamma)                          # from (10)
+        c[zi] = solve_many(Phi[:, zi], -gamma)                          # from (10)
         A = np.einsum("ik,ijk,jk->k", R, M, R)                           # R^T M R
         b = np.einsum("ik,ik->k", R, p1 - np.einsum("ijk,jk->ik", M, c))
         qdd = b / A
@@ -687,8 +665,8 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
     -------
     BasinMap
     """
-    from . import __version__
-    from .slider_crank import DEFAULT_READING, get_reading
+    from .. import __version__
+    from ..slider_crank import DEFAULT_READING, get_reading
 
     phi0_values, dphi0_values = _check_grid(phi0_values, dphi0_values)
     _check_time(t_end, step)
@@ -745,9 +723,9 @@ def reference_outcome(system, phi0, dphi0, t_end=20.0):
     The run stops once ``|phi - phi0|`` passes 2 pi + 0.5 rad (the outcome is
     then settled); :func:`~closedloop.slider_crank.classify_motion` decides.
     """
-    from .formulations import Minimal
-    from .simulation import simulate
-    from .slider_crank import classify_motion
+    from ..formulations import Minimal
+    from ..simulation import simulate
+    from ..slider_crank import classify_motion
 
     limit = 2.0 * math.pi + 0.5
     result = simulate(system, initial_state(system, float(phi0), float(dphi0)), t_end, formulation=Minimal(),
@@ -772,7 +750,7 @@ def reference_outcomes(phi0_values, dphi0_values, t_end=20.0, cells=None, readin
     ndarray of int, shape (M, N)
         Outcome codes; -1 where a cell was not computed.
     """
-    from .slider_crank import DEFAULT_READING
+    from ..slider_crank import DEFAULT_READING
 
     phi0_values, dphi0_values = _check_grid(phi0_values, dphi0_values)
     system = slider_crank_system(reading=DEFAULT_READING if reading is None else reading)

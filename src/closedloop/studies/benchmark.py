@@ -3,7 +3,7 @@
 The study behind ``closedloop benchmark`` and chapter 8.  For each of the
 paper's four cases it integrates the slider-crank over 0-20 s with every entry
 of :func:`study_entries` (the library's formulations and the same model
-written the usual way with ``sympy.physics.mechanics``, :mod:`closedloop.baseline`),
+written the usual way with ``sympy.physics.mechanics``, :mod:`closedloop.studies.baseline`),
 every solve_ivp method of the settings, and a ladder of tolerances
 (``atol = rtol``), and records one row per run.
 
@@ -74,7 +74,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ClosedLoopError, InputError
+from ..errors import ClosedLoopError, InputError
 
 __all__ = [
     "Entry", "study_entries", "StudySettings", "DEFAULT_SETTINGS", "QUICK_SETTINGS", "run_study",
@@ -94,7 +94,7 @@ PLATEAU_RATIO = 100.0          # an error this many times rtol no longer follows
 STEP_RULE_DT = 0.05            # s: Delta t of the rule alpha = 1/dt, beta = sqrt(2)/dt (chapter 3 uses 0.1-0.02)
 BASELINE_KEY = "sympy"
 SOLVE_IVP_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
-#: solve_ivp's five, and the compiled DOP853 of scipy.integrate.ode (closedloop.ode_dop853).
+#: solve_ivp's five, and the compiled DOP853 of scipy.integrate.ode (closedloop.simulation.dop853).
 ALL_METHODS = SOLVE_IVP_METHODS + ("ode.dop853",)
 EXPLICIT_RK = ("RK45", "DOP853")
 
@@ -124,8 +124,8 @@ class Entry:
 
 def study_entries():
     """The contestants, in display order: a new formulation is one more line here."""
-    from .formulations import Augmented, Baumgarte, ClosedForm, Minimal, Orthogonal, baumgarte_from_step
-    from .projection import Projected
+    from ..formulations import Augmented, Baumgarte, ClosedForm, Minimal, Orthogonal, baumgarte_from_step
+    from ..formulations import Projected
 
     return (
         Entry("augmented", "Augmented (12)", Augmented()),
@@ -225,7 +225,7 @@ def _provenance(settings):
     import scipy
     import sympy
 
-    from . import __version__
+    from .. import __version__
 
     return {
         "closedloop_version": __version__,
@@ -257,7 +257,7 @@ def _run(entry, context, method, rtol, t_eval, residuals=False):
         y = np.vstack((res.s, res.sd))
         norms = _residuals(context.system, y) if residuals else None
     else:
-        from .simulation import simulate
+        from ..simulation import simulate
 
         res = simulate(context.system, context.state, T_END, formulation=entry.formulation, method=method,
                        rtol=rtol, atol=rtol, t_eval=t_eval)
@@ -328,8 +328,8 @@ def _curve(entry, context, case, method, settings):
 
 def _reference(system, state, grid, check_index):
     """The reference on the grid and its agreement with the rtol = 1e-12 solution."""
-    from .formulations import Minimal
-    from .simulation import simulate
+    from ..formulations import Minimal
+    from ..simulation import simulate
 
     runs = {}
     for tol in (REFERENCE_TOL, REFERENCE_CHECK_TOL):
@@ -362,8 +362,8 @@ def run_study(settings=DEFAULT_SETTINGS, entries=None, progress=None):
         list of rows described in the module docstring.
     """
     from .baseline import LagrangesBaseline
-    from .simulation import SOLVER_METHODS
-    from .slider_crank import get_case, initial_state, slider_crank_system
+    from ..simulation import SOLVER_METHODS
+    from ..slider_crank import get_case, initial_state, slider_crank_system
 
     for method in settings.methods + settings.other_case_methods + settings.baseline_methods:
         if method not in SOLVER_METHODS:
@@ -590,7 +590,7 @@ def residual_traces(case=2, method="DOP853", rtol=1e-6, keys=("augmented", "baum
     Returns a dict ``label -> (t, |f|, |f'|)``.
     """
     from .baseline import LagrangesBaseline
-    from .slider_crank import get_case, initial_state, slider_crank_system
+    from ..slider_crank import get_case, initial_state, slider_crank_system
 
     system = slider_crank_system()
     number = get_case(case)

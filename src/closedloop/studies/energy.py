@@ -29,8 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import cumulative_trapezoid, quad
 
-from .errors import InputError
-from .slider_crank import (DEFAULT_READING, OMEGA, SliderCrankParameters, drive_torque, gas_force,
+from ..errors import InputError
+from ..slider_crank import (DEFAULT_READING, OMEGA, SliderCrankParameters, drive_torque, gas_force,
                            get_reading, initial_state)
 
 __all__ = [

@@ -151,7 +151,7 @@ def _animate(result, setup, move, size, frames, duration, title):
 
 
 def four_bar_points(s, lengths):
-    """Joints O, A, B, D of the four-bar of :func:`closedloop.examples.four_bar_model`.
+    """Joints O, A, B, D of the four-bar of :func:`closedloop.four_bar.four_bar_model`.
 
     Parameters
     ----------
@@ -159,7 +159,7 @@ def four_bar_points(s, lengths):
         ``[theta1, theta2, theta3]``.
     lengths : mapping
         Values of ``l0, l1, l2, l3`` [m] (more keys are ignored), e.g.
-        :func:`closedloop.examples.parameter_values` of the system.
+        :func:`closedloop.four_bar.parameter_values` of the system.
 
     Returns
     -------
@@ -246,7 +246,7 @@ def plot_basin_map(basin, title=None, cases=True, ax=None):
 
     Parameters
     ----------
-    basin : closedloop.basin.BasinMap
+    basin : closedloop.studies.basin.BasinMap
     title : str, optional
     cases : bool, optional
         Mark and number the four cases of section 4 that lie inside the map.
@@ -262,7 +262,7 @@ def plot_basin_map(basin, title=None, cases=True, ax=None):
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch
 
-    from .slider_crank import CASES
+    from ..slider_crank import CASES
 
     if ax is None:
         fig = Figure(figsize=(8, 4.8), layout="constrained")

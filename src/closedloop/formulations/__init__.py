@@ -1,0 +1,63 @@
+"""The formulations of Lagrange's equations with multipliers, and their registry.
+
+Each formulation is a small immutable object over the same
+:class:`~closedloop.model.System` that keeps the contract of
+:class:`~closedloop.formulations.base.Formulation`:
+
+- :class:`Augmented`: the augmented system (12), no stabilisation;
+- :class:`Baumgarte`: (16)-(17), the constraint error obeys (15);
+- :class:`Orthogonal`: the ODE (24)-(26), lambda removed with R of (20);
+- :class:`NullSpace`: (24)-(26) with a null-space basis of Phi_s in place of R,
+  so it passes the dead positions where Phi_z of (20) is singular;
+- :class:`Minimal`: coordinate partitioning, an ODE in q alone with z from
+  Newton on f = 0 at every evaluation: the accuracy reference;
+- :class:`ClosedForm`: the accelerations of (26) eliminated symbolically and
+  generated as one function: the fast one;
+- :class:`Projected`: (12) with every step projected back onto f = 0, f' = 0.
+
+A new formulation is one module of this package and one line of :data:`REGISTRY`.
+"""
+
+from __future__ import annotations
+
+from ..errors import InputError
+from .base import Formulation, StateUnpacker
+from .closed_form import ClosedForm
+from .minimal import Minimal
+from .projected import Projected, project_state
+from .redundant import Augmented, Baumgarte, NullSpace, Orthogonal, baumgarte_from_step, baumgarte_p2
+
+__all__ = [
+    "Formulation", "StateUnpacker", "Augmented", "Baumgarte", "Orthogonal", "NullSpace", "Minimal", "ClosedForm",
+    "Projected", "project_state", "baumgarte_from_step", "baumgarte_p2", "formulation_from_name",
+    "FORMULATION_NAMES", "REGISTRY",
+]
+
+#: Every formulation by its one name (its class attribute ``name``), in the book's order.
+REGISTRY = {cls.name: cls for cls in (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, ClosedForm, Projected)}
+#: The names the command line and formulation_from_name() accept.
+FORMULATION_NAMES = tuple(REGISTRY)
+
+
+def _takes_gains(cls):
+    return "alpha" in getattr(cls, "__dataclass_fields__", {})
+
+
+def formulation_from_name(name, alpha=None, beta=None):
+    """The formulation called ``name``, with Baumgarte gains where it takes them.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`FORMULATION_NAMES`; ``SimulationResult.formulation`` is one.
+    alpha, beta : float, optional
+        Only for the formulations that take gains (default 5 and 5, Baumgarte's choice).
+    """
+    if name not in REGISTRY:
+        raise InputError(f"formulation: unknown {name!r}; choose one of {', '.join(FORMULATION_NAMES)}")
+    cls = REGISTRY[name]
+    gains = {k: v for k, v in (("alpha", alpha), ("beta", beta)) if v is not None}
+    if gains and not _takes_gains(cls):
+        takers = ", ".join(n for n, c in REGISTRY.items() if _takes_gains(c))
+        raise InputError(f"alpha, beta: only the {takers} formulations take gains, not {name!r}")
+    return cls(**gains)

@@ -1,0 +1,170 @@
+"""The formulations in redundant coordinates, whose state is ``y = [s, s']``.
+
+- :class:`Augmented`: the augmented system (12), no stabilisation;
+- :class:`Baumgarte`: (16)-(17), the constraint error obeys (15);
+- :class:`Orthogonal`: the ODE (24)-(26), lambda removed with R of (20);
+- :class:`NullSpace`: (24)-(26) with R replaced by a basis of the null space
+  of Phi_s that needs no fixed partition (SVD, or partitioning with pivoting),
+  so it passes the dead positions where Phi_z of (20) is singular.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..linalg import NULL_SPACE_BASES, null_space_basis, orthogonal_complement, solve_augmented
+from .base import Formulation
+
+__all__ = ["Augmented", "Baumgarte", "Orthogonal", "NullSpace", "baumgarte_from_step", "baumgarte_p2"]
+
+
+def _check_gains(alpha, beta):
+    for name, value in (("alpha", alpha), ("beta", beta)):
+        if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value >= 0):
+            raise InputError(f"{name}: must be a finite number >= 0, got {value!r}")
+
+
+
+def baumgarte_from_step(step):
+    """Baumgarte's rule of thumb ``alpha = 1/dt``, ``beta = sqrt(2)/dt`` (after (17)).
+
+    Parameters
+    ----------
+    step : float
+        The integration step dt, > 0.
+
+    Returns
+    -------
+    Baumgarte
+    """
+    if not (isinstance(step, (int, float, np.floating)) and math.isfinite(step) and step > 0):
+        raise InputError(f"step: must be a finite number > 0, got {step!r}")
+    return Baumgarte(alpha=1.0 / step, beta=math.sqrt(2.0) / step)
+
+
+
+@dataclass(frozen=True)
+class Augmented(Formulation):
+    """The augmented system (12) with ``p2 = -Phi_s' s'`` (11): no stabilisation.
+
+    The constraint error is not fed back, so f and f' drift (13).
+    """
+
+    name = "augmented"
+
+    def accelerations(self, system, t, s, sd, mode=None):
+        """s'' from (12)."""
+        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
+        return solve_augmented(M, Phi, p1, -gamma, t)[0]
+
+
+
+@dataclass(frozen=True)
+class _Stabilised(Formulation):
+    """The Baumgarte gains alpha, beta >= 0 of (15), shared by (17) and (25)."""
+
+    alpha: float = 5.0
+    beta: float = 5.0
+
+    def __post_init__(self):
+        _check_gains(self.alpha, self.beta)
+
+    @property
+    def gains(self):
+        return (self.alpha, self.beta)
+
+
+
+@dataclass(frozen=True)
+class Baumgarte(_Stabilised):
+    """Baumgarte's stabilisation (16)-(17).
+
+    The constraint rows of (12) solve f'' + 2 alpha f' + beta^2 f = 0 (15)
+    instead of f'' = 0 (14).  Baumgarte's own choice was alpha = beta = 5.
+
+    Parameters
+    ----------
+    alpha, beta : float, >= 0
+    """
+
+    name = "baumgarte"
+
+    def accelerations(self, system, t, s, sd, mode=None):
+        """s'' from (16) with Baumgarte's p2~ of (17)."""
+        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
+        return solve_augmented(M, Phi, p1, baumgarte_p2(Phi, gamma, f, sd, self.alpha, self.beta), t)[0]
+
+
+
+def baumgarte_p2(Phi, gamma, f, sd, alpha, beta):
+    """p2~ = -Phi_s' s' - 2 alpha Phi_s s' - beta^2 f (17)."""
+    return -gamma - 2.0 * alpha * (Phi @ sd) - beta * beta * f
+
+
+
+@dataclass(frozen=True)
+class Orthogonal(_Stabilised):
+    """The orthogonality-theorem ODE (24)-(26): ``A(s) s'' = p(s, s', t)``.
+
+    ``A = [R^T M; Phi_s]`` and ``p = [R^T p1; p2~]`` (25), with R of (20) and
+    Baumgarte's p2~ of (17); lambda never appears.
+
+    Parameters
+    ----------
+    alpha, beta : float, >= 0
+        Baumgarte gains in p2~.
+    """
+
+    name = "orthogonal"
+    guards_partition = True       # R of (20) is refused where cond(Phi_z) > CONDITION_LIMIT
+
+    def accelerations(self, system, t, s, sd, mode=None):
+        """s'' from (26)."""
+        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
+        R = orthogonal_complement(Phi, system.q_index, system.z_index, t)
+        A = np.vstack((R.T @ M, Phi))                                       # (25)
+        p = np.concatenate((R.T @ p1, baumgarte_p2(Phi, gamma, f, sd, self.alpha, self.beta)))
+        return np.linalg.solve(A, p)                                         # (26)
+
+
+
+@dataclass(frozen=True)
+class NullSpace(_Stabilised):
+    """The orthogonality ODE (24)-(26) with a null-space basis that needs no fixed partition.
+
+    ``A = [N^T M; Phi_s]``, ``p = [N^T p1; p2~]`` with N from
+    :func:`null_space_basis` in place of R of (20), and Baumgarte's p2~ of (17)
+    in the constraint rows.  N exists wherever Phi_s has full row rank, so
+    this formulation carries a simulation through the dead positions where
+    Phi_z (and so R of (20)) is singular.  :class:`Minimal` can not pass them;
+    :class:`Orthogonal` passes them only because its steps happen not to land
+    where R blows up, and it refuses a state on one.  It still stops, with a
+    clear error, where Phi_s itself loses rank.
+
+    Parameters
+    ----------
+    alpha, beta : float, >= 0
+        Baumgarte gains in p2~, as for :class:`Orthogonal`.
+    basis : {"svd", "pivoted"}
+        How N is computed; see :func:`null_space_basis`.
+    """
+
+    basis: str = "svd"
+    name = "nullspace"
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.basis not in NULL_SPACE_BASES:
+            raise InputError(f"basis: unknown {self.basis!r}; choose one of {', '.join(NULL_SPACE_BASES)}")
+
+    def accelerations(self, system, t, s, sd, mode=None):
+        """s'' from (26) with N in place of R."""
+        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
+        N = null_space_basis(Phi, self.basis, t)
+        A = np.vstack((N.T @ M, Phi))
+        p = np.concatenate((N.T @ p1, baumgarte_p2(Phi, gamma, f, sd, self.alpha, self.beta)))
+        return np.linalg.solve(A, p)

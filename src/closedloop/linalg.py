@@ -1,0 +1,181 @@
+"""Linear algebra of constrained systems, written once: small and batched solves, the augmented
+matrix of (12), the orthogonal complement R of (20) and a null-space basis of Phi_s.
+
+Every formulation, the kinematics and the basin map solve their small systems here, so a
+singular matrix is refused with one message wherever it is met.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.linalg import qr
+
+from .errors import SingularConfigurationError, at_time
+
+__all__ = ["solve_augmented", "solve_small", "solve_many", "condition_number", "orthogonal_complement",
+           "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT", "NULL_SPACE_BASES"]
+
+
+def solve_augmented(M, Phi, p1, p2, t=None):
+    """Solve ``[[M, Phi^T], [Phi, 0]] [s''; lambda] = [p1; p2]`` (12), (16)."""
+    n, r = M.shape[0], Phi.shape[0]
+    K = np.zeros((n + r, n + r))
+    K[:n, :n] = M
+    K[:n, n:] = Phi.T
+    K[n:, :n] = Phi
+    try:
+        x = np.linalg.solve(K, np.concatenate((p1, p2)))
+    except np.linalg.LinAlgError:
+        raise SingularConfigurationError(
+            f"the augmented matrix of (12) is singular{at_time(t)}: the constraints are dependent "
+            "(a kinematic singularity, cond(Phi_s) = inf); try the minimal formulation or other coordinates"
+        ) from None
+    return x[:n], x[n:]
+
+
+#: |det| / |A|_F^2 at or below which a 2 x 2 matrix counts as singular (cond(A) >~ 1/this).
+SINGULAR_TOLERANCE = 1e-14
+
+
+def solve_small(A, b):
+    """Solve ``A x = b`` for a square A; closed form for 1 x 1 and 2 x 2.
+
+    numpy's solver costs a few microseconds of overhead per call, more than the
+    arithmetic of a 2 x 2 system: the minimal formulation makes several such
+    solves per right-hand-side evaluation.  Raises ``numpy.linalg.LinAlgError``
+    for a singular A, like numpy, and also for a 2 x 2 A that is singular to
+    working precision (``|det A|`` at most ``SINGULAR_TOLERANCE`` times the squared
+    Frobenius norm of A, i.e. cond(A) of order 1e14 or more), whose solution is
+    round-off only: at a change point of a linkage, rounding leaves such a
+    determinant of about 1e-16 instead of 0.
+    """
+    size = A.shape[0]
+    if size == 1:
+        a = A[0, 0]
+        if a == 0.0 or not np.isfinite(a):
+            raise np.linalg.LinAlgError("Singular matrix")
+        return b / a
+    if size == 2:
+        a, c, d, e = A[0, 0], A[0, 1], A[1, 0], A[1, 1]
+        det = a * e - c * d
+        if not np.isfinite(det) or abs(det) <= SINGULAR_TOLERANCE * (a * a + c * c + d * d + e * e):
+            raise np.linalg.LinAlgError("Singular matrix")
+        return np.array([e * b[0] - c * b[1], a * b[1] - d * b[0]]) / det
+    return np.linalg.solve(A, b)
+
+
+#: cond(Phi_z) above which R of (20) is refused: its entries then keep fewer than
+#: about 16 - log10(1e10) = 6 significant digits, fewer than any tolerance in this book.
+CONDITION_LIMIT = 1e10
+
+
+def condition_number(A):
+    """The 2-norm condition number sigma_max / sigma_min of a matrix (``inf`` if singular).
+
+    Closed form for 1 x 1 and 2 x 2 matrices (cheap enough to check at every
+    right-hand-side evaluation), singular values otherwise.
+    """
+    A = np.asarray(A, dtype=float)
+    if A.shape == (1, 1):
+        return 1.0 if A[0, 0] != 0.0 else math.inf
+    if A.shape == (2, 2):
+        det = abs(A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0])
+        frobenius2 = float(np.sum(A * A))
+        if det == 0.0:
+            return math.inf
+        # sigma_1^2 + sigma_2^2 = |A|_F^2 and sigma_1 sigma_2 = |det A|
+        root = math.sqrt(max(frobenius2 * frobenius2 - 4.0 * det * det, 0.0))
+        return (frobenius2 + root) / (2.0 * det)
+    singular_values = np.linalg.svd(A, compute_uv=False)
+    return math.inf if singular_values[-1] == 0.0 else float(singular_values[0] / singular_values[-1])
+
+
+def orthogonal_complement(Phi, q_index, z_index, t=None):
+    """R of (20) from Phi_s, in the order of s; see :meth:`System.orthogonal_complement`.
+
+    Raises :class:`~closedloop.errors.SingularConfigurationError` when
+    cond(Phi_z) exceeds :data:`CONDITION_LIMIT`.
+    """
+    Phi_q, Phi_z = Phi[:, q_index], Phi[:, z_index]
+    condition = condition_number(Phi_z)
+    if condition > CONDITION_LIMIT:
+        raise SingularConfigurationError(
+            f"Phi_z is singular{at_time(t)}: cond(Phi_z) = {condition:.3g} > {CONDITION_LIMIT:.0e}, so R of "
+            "(20) does not exist at this configuration (a dead position of the independent coordinates); "
+            "use the NullSpace formulation, which needs no partition"
+        )
+    X = solve_small(Phi_z, Phi_q)
+    R = np.empty((Phi.shape[1], len(q_index)))
+    R[q_index] = np.eye(len(q_index))
+    R[z_index] = -X
+    return R
+
+
+def solve_many(A, b):
+    """Solve ``A[:, :, j] x[:, j] = b[:, j]`` for every j; A of shape (m, m, K), b of shape (m, K)."""
+    m = A.shape[0]
+    if m == 1:
+        det = A[0, 0]
+        bad = det == 0.0
+        x = b / np.where(bad, 1.0, det)
+    elif m == 2:
+        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+        bad = det == 0.0
+        det = np.where(bad, 1.0, det)
+        x = np.array([A[1, 1] * b[0] - A[0, 1] * b[1], A[0, 0] * b[1] - A[1, 0] * b[0]]) / det
+    else:
+        A_stack = np.moveaxis(A, -1, 0)
+        bad = np.linalg.det(A_stack) == 0.0
+        x = np.linalg.solve(np.where(bad[:, None, None], np.eye(m), A_stack), b.T[:, :, None])[:, :, 0].T
+    if np.any(bad):
+        raise SingularConfigurationError(
+            "Phi_z is singular at some cells of the batch: R of (20) does not exist there"
+        )
+    return x
+
+
+#: sigma_min(Phi_s) / sigma_max(Phi_s) below which Phi_s counts as rank deficient.
+RANK_LIMIT = 1e-10
+NULL_SPACE_BASES = ("svd", "pivoted")
+
+
+def null_space_basis(Phi, basis="svd", t=None):
+    """An n x f matrix N whose columns span the null space of Phi_s: Phi_s N = 0 (18).
+
+    Any such N can replace R of (20) in (24)-(26): N = R T with T invertible,
+    so ``N^T M s'' = N^T p1`` and ``R^T M s'' = R^T p1`` are the same equations.
+
+    Parameters
+    ----------
+    Phi : ndarray, shape (r, n)
+        Phi_s of (9).
+    basis : {"svd", "pivoted"}
+        ``"svd"``: the last f right singular vectors of Phi_s, an orthonormal
+        basis.  ``"pivoted"``: coordinate partitioning with pivoting, R of (20)
+        for the partition that QR with column pivoting finds best conditioned
+        (its first r pivot columns become z) at this configuration.
+    t : float, optional
+        Time, only for error messages.
+
+    Raises
+    ------
+    SingularConfigurationError
+        If Phi_s itself loses rank (sigma_min / sigma_max < :data:`RANK_LIMIT`):
+        the constraints are dependent, assembly branches meet there, and no
+        choice of coordinates passes such a bifurcation.
+    """
+    r, n = Phi.shape
+    _, singular_values, Vt = np.linalg.svd(Phi)
+    if singular_values[-1] < RANK_LIMIT * singular_values[0]:
+        condition = math.inf if singular_values[-1] == 0 else singular_values[0] / singular_values[-1]
+        raise SingularConfigurationError(
+            f"Phi_s lost rank{at_time(t)}: cond(Phi_s) = {condition:.3g} > {1 / RANK_LIMIT:.0e}; the "
+            "constraints are dependent (assembly branches meet, a bifurcation) and no choice of "
+            "coordinates passes it; change the geometry or stop before it"
+        )
+    if basis == "svd":
+        return Vt[r:].T
+    pivots = qr(Phi, mode="r", pivoting=True)[1]
+    return orthogonal_complement(Phi, np.sort(pivots[r:]), np.sort(pivots[:r]), t)
