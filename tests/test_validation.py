@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-import closedloop.simulation as simulate_module
+import closedloop.simulation.solve_ivp_runner as solve_ivp_runner
 from closedloop import Baumgarte, InitialState, InputError, Orthogonal, formulation_from_name, simulate
 from closedloop.slider_crank import SliderCrankParameters, get_case, get_reading, initial_state
 
@@ -15,7 +15,7 @@ def no_integration(monkeypatch):
     """Any call of solve_ivp during these tests is a failure: errors must come first."""
     def forbidden(*args, **kwargs):
         raise AssertionError("solve_ivp was called before the input was validated")
-    monkeypatch.setattr(simulate_module, "solve_ivp", forbidden)
+    monkeypatch.setattr(solve_ivp_runner, "solve_ivp", forbidden)
 
 
 @pytest.mark.parametrize("name", ["m1", "m2", "m3", "I1", "I2", "l1", "l2"])

@@ -1,0 +1,98 @@
+"""One segment of a run with the compiled DOP853 of scipy.integrate.ode (method ``"ode.dop853"``).
+
+The compiled code has no events and no dense output; :func:`closedloop.simulation.dop853.integrate_segment`
+adds the switch location, and this runner adds what :func:`closedloop.simulate` needs around it:
+budgets, outputs and the end state (shared with the solve_ivp runner through
+:class:`~closedloop.simulation.run.Run`), and a partition check in place of the branch guard.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SingularConfigurationError
+from ..formulations.closed_form import partition_determinant
+from . import dop853
+
+__all__ = ["segment"]
+
+
+def _switching_values(run, unpack):
+    """``switching(t, y) -> list``: the values of the switching functions (and stop_when) at a state."""
+    h = run.force.switching_functions if run.names else None
+    stop_when = run.options.stop_when
+    if stop_when is None and h is not None:        # the common case, called after every step
+        def switching(t, y):
+            s, sd = unpack(y, t)
+            values = h(t, s, sd)
+            return values.tolist() if isinstance(values, np.ndarray) else list(values)
+
+        return switching
+
+    def switching(t, y):
+        if h is None and stop_when is None:
+            return ()
+        s, sd = unpack(y, t)
+        values = h(t, s, sd) if h is not None else []
+        values = values.tolist() if isinstance(values, np.ndarray) else list(values)
+        return values + [stop_when(t, s, sd)] if stop_when is not None else values
+
+    return switching
+
+
+def segment(run, t0, s0, sd0, mode):
+    """Integrate on branch ``mode`` from ``t0`` until t_end or the next switch: a SegmentEnd."""
+    options = run.options
+    y0, unpack, rhs = run.start_segment(s0, sd0, mode)
+    directions = [-1.0 if on else 1.0 for on in mode[:len(run.names)]]
+    if options.stop_when is not None:
+        directions.append(1.0)
+    solver_options = dict(options.solver_options)
+    first_step = solver_options.pop("first_step", None)     # the user's first step: first segment only
+    first_step = first_step if first_step is not None and not run.outputs.pieces else None
+    steps_left = options.max_steps - len(run.step_sizes)
+    try:
+        result = dop853.integrate_segment(
+            rhs, t0, y0, run.t_end, rtol=options.rtol, atol=options.atol,
+            switching=_switching_values(run, unpack), directions=directions, outputs=run.outputs.due(t0),
+            max_nfev=run.evaluations_left(),
+            nsteps=solver_options.pop("nsteps", max(1, min(dop853.DEFAULT_NSTEPS, steps_left))),
+            first_step=first_step if first_step is not None else run.last_step_size, **solver_options)
+    except dop853.BudgetExceeded as exceeded:
+        raise run.budget_error(exceeded.t) from None
+    run.nfev += result.nfev
+    run.last_step_size = result.last_step
+    run.step_sizes.extend(result.steps)
+    run.t_reached = result.t_stop
+    run.check_finite(result.t, result.y)
+    if not run.formulation.guards_branch:            # else the formulation guards it itself
+        _check_partition(run, result, t0)
+    run.store_segment(result.t, result.y, s0, mode, t0)
+    return run.end_of_segment(result.t_stop, result.y_stop, unpack, result.event)
+
+
+def _check_partition(run, result, t0):
+    """ode.dop853 has no events for det Phi_z: refuse a path whose step ends straddle a zero.
+
+    R of (20), and so ClosedForm and Orthogonal, does not exist where det Phi_z = 0;
+    a step that jumps across such a point has left the configurations R describes.
+    """
+    system = run.system
+    determinant = partition_determinant(system)            # generated once per system
+    if determinant is not None:
+        det = determinant(result.step_ends[:system.n])
+    else:
+        Phi_z = system.constraints_and_jacobian_many(result.step_ends[:system.n])[1][:, system.z_index]
+        det = np.linalg.det(np.moveaxis(Phi_z, 2, 0))
+    if (det > 0.0).all() or (det < 0.0).all():         # one sign along the whole segment
+        return
+    flips = np.nonzero(np.sign(det[1:]) * np.sign(det[:-1]) < 0)[0]
+    if flips.size:
+        times = np.concatenate(([t0], t0 + np.cumsum(result.steps), [result.t_stop]))
+        k = int(flips[0])
+        raise SingularConfigurationError(
+            f"det Phi_z changed sign between t = {times[k]:.6g} s and t = {times[k + 1]:.6g} s with "
+            f"{run.options.method_name}: the path crossed a configuration where R of (20) does not exist, "
+            "and this method cannot locate it or apply the branch guard; use a solve_ivp method "
+            "(the branch guard), or the NullSpace formulation"
+        )

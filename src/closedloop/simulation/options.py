@@ -1,0 +1,167 @@
+"""The options of one simulate() call: checked once, before any integration, and then frozen."""
+
+from __future__ import annotations
+
+import math
+import types
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import OdeSolver
+
+from ..errors import InputError
+from ..formulations import Formulation
+from ..kinematics import InitialState
+from . import dop853
+
+__all__ = ["RunOptions", "run_options", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT", "MAX_STEPS",
+           "INITIAL_TOLERANCE", "IMPLICIT_METHODS"]
+
+#: The methods simulate() accepts by name: solve_ivp's, and "ode.dop853", the compiled DOP853
+#: of scipy.integrate.ode with events added by :mod:`closedloop.simulation.dop853`.  An OdeSolver
+#: subclass is accepted too.
+SOLVER_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", dop853.METHOD)
+#: The implicit ones among them (for stiff problems).
+IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
+#: How switched forces are handled: with events and the sticking rule, or naively.
+SWITCHING = ("events", "naive")
+#: Default Kantorovich number above which a crossing of det Phi_z = 0 is refused (see the branch
+#: guard in :mod:`closedloop.simulation.solve_ivp_runner`); simulate's ``branch_limit``.
+BRANCH_LIMIT = 0.01
+#: Constraint error above which an initial state is refused as inconsistent.
+INITIAL_TOLERANCE = 1e-8
+#: Default bound on the accepted steps of one simulate() call: a run that needs more fails clearly.
+MAX_STEPS = 1_000_000
+#: solve_ivp options that simulate() manages itself.
+_RESERVED = ("events", "dense_output", "args", "vectorized")
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """Everything simulate() was asked for, validated (see :func:`simulate` for the meaning)."""
+
+    t_start: float
+    t_end: float
+    method: object                    # a name from SOLVER_METHODS, or an OdeSolver subclass
+    rtol: object                      # float, or an array of them
+    atol: object
+    t_eval: np.ndarray | None
+    multipliers: bool
+    stop_when: object                 # callable or None
+    sticking_resolution: float
+    max_segments: int
+    switching: str
+    max_nfev: int | None
+    max_steps: int
+    work: bool
+    branch_limit: float
+    solver_options: types.MappingProxyType
+
+    @property
+    def method_name(self):
+        return self.method if isinstance(self.method, str) else self.method.__name__
+
+    @property
+    def compiled(self):
+        """True for the compiled DOP853 of scipy.integrate.ode."""
+        return self.method == dop853.METHOD
+
+
+def _finite_and_positive(value):
+    """True for a finite number > 0, or an array of them (a float is checked without numpy)."""
+    if isinstance(value, float):
+        return math.isfinite(value) and value > 0
+    return bool(np.all(np.isfinite(value)) and np.all(np.asarray(value) > 0))
+
+
+def _check_times(t_start, t_end, rtol, atol, sticking_resolution, branch_limit):
+    for name, value in (("t_start", t_start), ("t_end", t_end)):
+        if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value)):
+            raise InputError(f"{name}: must be a finite number, got {value!r}")
+    if not t_end > t_start:
+        raise InputError(f"t_end: must be > t_start = {t_start:g}, got {t_end:g}")
+    for name, value in (("rtol", rtol), ("atol", atol), ("sticking_resolution", sticking_resolution)):
+        if not _finite_and_positive(value):
+            raise InputError(f"{name}: must be finite and > 0, got {value!r}")
+    if not (isinstance(branch_limit, (int, float, np.floating)) and branch_limit > 0):
+        raise InputError(f"branch_limit: must be a number > 0 (math.inf turns the guard off), got {branch_limit!r}")
+
+
+def _check_method(formulation, method, switching, options):
+    if not isinstance(formulation, Formulation):
+        raise InputError(
+            "formulation: expected a Formulation (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, "
+            f"ClosedForm or Projected), got {formulation!r}"
+        )
+    formulation.check_method(method)
+    if switching not in SWITCHING:
+        raise InputError(f"switching: unknown {switching!r}; choose one of {', '.join(SWITCHING)}")
+    if method == dop853.METHOD:
+        if switching == "naive":
+            raise InputError(f"method: switching='naive' runs on solve_ivp; choose one of "
+                             f"{', '.join(SOLVER_METHODS[:-1])}")
+        if not formulation.guards_partition:
+            raise InputError(
+                f"method: {method} has no dense output for the branch guard, so it takes only formulations "
+                "that cannot cross det Phi_z = 0 unnoticed (ClosedForm, Orthogonal, Minimal); use a "
+                f"solve_ivp method with {type(formulation).__name__}"
+            )
+    if not (method in SOLVER_METHODS or (isinstance(method, type) and issubclass(method, OdeSolver))):
+        raise InputError(f"method: unknown {method!r}; choose one of {', '.join(SOLVER_METHODS)}")
+    reserved = set(_RESERVED) & set(options)
+    if reserved:
+        raise InputError(f"solver options: {sorted(reserved)} are managed by simulate()")
+    if method == dop853.METHOD:
+        unknown = set(options) - set(dop853.ALLOWED_OPTIONS)
+        if unknown:
+            raise InputError(f"solver options: {sorted(unknown)} are not taken by {method}; it takes "
+                             f"{', '.join(dop853.ALLOWED_OPTIONS)}")
+
+
+def _check_initial_state(system, initial_state):
+    if not isinstance(initial_state, InitialState):
+        raise InputError("initial_state: expected an InitialState (see consistent_initial_state)")
+    s0, sd0 = initial_state.s, initial_state.sd
+    if s0.shape != (system.n,) or sd0.shape != (system.n,):
+        raise InputError(f"initial_state: need {system.n} coordinates and {system.n} velocities")
+    if not (np.isfinite(s0).all() and np.isfinite(sd0).all()):
+        raise InputError("initial_state: coordinates and velocities must be finite")
+    f0, Phi0 = system.constraints_and_jacobian(s0)
+    scale = 1.0 + np.abs(s0).max()
+    velocity = Phi0 @ sd0
+    errors = (math.sqrt(f0 @ f0), math.sqrt(velocity @ velocity))       # the 2-norms, as np.linalg.norm
+    if errors[0] > INITIAL_TOLERANCE * scale or errors[1] > INITIAL_TOLERANCE * (1.0 + np.abs(sd0).max()):
+        raise InputError(
+            f"initial_state: not consistent (|f| = {errors[0]:.3g}, |f'| = {errors[1]:.3g}, allowed "
+            f"<= {INITIAL_TOLERANCE:g}); build it with consistent_initial_state"
+        )
+
+
+def _check_output_times(t_eval, t_start, t_end):
+    if t_eval is None:
+        return None
+    t_eval = np.asarray(t_eval, dtype=float)
+    if t_eval.ndim != 1 or np.any(np.diff(t_eval) <= 0) or t_eval[0] < t_start or t_eval[-1] > t_end:
+        raise InputError(f"t_eval: must increase strictly within [{t_start:g}, {t_end:g}]")
+    return t_eval
+
+
+def run_options(system, initial_state, formulation, *, t_start, t_end, method, rtol, atol, t_eval, multipliers,
+                stop_when, sticking_resolution, max_segments, switching, max_nfev, max_steps, work, branch_limit,
+                solver_options):
+    """Check every argument of :func:`simulate` (raising InputError) and return them as RunOptions."""
+    _check_times(t_start, t_end, rtol, atol, sticking_resolution, branch_limit)
+    _check_method(formulation, method, switching, solver_options)
+    if max_nfev is not None and not (isinstance(max_nfev, (int, np.integer)) and max_nfev > 0):
+        raise InputError(f"max_nfev: must be a whole number > 0, got {max_nfev!r}")
+    if not (isinstance(max_steps, (int, np.integer)) and max_steps >= 1):
+        raise InputError(f"max_steps: must be an integer >= 1, got {max_steps!r}")
+    _check_initial_state(system, initial_state)
+    t_eval = _check_output_times(t_eval, t_start, t_end)
+    if stop_when is not None and not callable(stop_when):
+        raise InputError("stop_when: expected a callable stop_when(t, s, sd) -> float")
+    return RunOptions(t_start=t_start, t_end=t_end, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
+                      multipliers=bool(multipliers), stop_when=stop_when, sticking_resolution=sticking_resolution,
+                      max_segments=max_segments, switching=switching, max_nfev=max_nfev, max_steps=max_steps,
+                      work=bool(work), branch_limit=branch_limit,
+                      solver_options=types.MappingProxyType(dict(solver_options)))

@@ -1,0 +1,192 @@
+"""What simulate() returns, and how the pieces of a run become one result."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+__all__ = ["SimulationResult", "SwitchEvent", "Piece", "Outputs", "multipliers"]
+
+
+@dataclass(frozen=True)
+class SwitchEvent:
+    """One stop at a switching surface: when, which switch, and what happened.
+
+    ``action`` is one of ``"crossed"``, ``"turned back"``, ``"stuck"``, ``"released"``.
+    """
+
+    t: float
+    switch: str
+    action: str
+
+
+@dataclass
+class SimulationResult:
+    """What :func:`simulate` computed.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Output times.
+    s, sd : ndarray, shape (n, N)
+        Coordinates and velocities (rows in the order of the model's coordinates).
+    constraint_error : ndarray, shape (N,)
+        ``|f| = sqrt(sum f_i^2)`` of (32).
+    velocity_constraint_error : ndarray, shape (N,)
+        ``|f'| = |Phi_s s'|`` of (9).
+    multipliers : ndarray, shape (r, N), or None
+        lambda of (5), only when asked for.
+    nfev : int
+        Right-hand-side evaluations, summed over all segments.
+    cpu_time : float
+        Process time of the run in seconds (integration, switching, output).
+    switch_events : list of SwitchEvent
+    sticking_intervals : list of (float, float)
+        Time intervals spent stuck (see :mod:`closedloop.simulation.switching`).
+    stopped_at : float or None
+        Where ``stop_when`` ended the run early, else None.
+    partition_singularities : list of float
+        Times where det Phi_z of the model's partition changed sign (dead
+        positions passed by a redundant-coordinate formulation).
+    switching : str
+        "events" or "naive" (see :func:`simulate`).
+    formulation, method : str
+        ``formulation`` is the formulation's registry name, so
+        ``formulation_from_name(result.formulation)`` gives it back.
+    rtol, atol : float
+    coordinate_names : tuple of str
+    step_sizes : ndarray, shape (n_steps,)
+        Every accepted step of the integrator [s], in order, over all segments.
+    work : ndarray, shape (N,), or None
+        Only with ``work=True``: the work W(t) [J] done since ``t_start`` by the
+        non-conservative generalised forces tau of (5) (the model's smooth
+        forces and the switched force), integrated with the state.
+    """
+
+    t: np.ndarray
+    s: np.ndarray
+    sd: np.ndarray
+    constraint_error: np.ndarray
+    velocity_constraint_error: np.ndarray
+    multipliers: np.ndarray | None
+    nfev: int
+    cpu_time: float
+    switch_events: list = field(default_factory=list)
+    sticking_intervals: list = field(default_factory=list)
+    stopped_at: float | None = None
+    partition_singularities: list = field(default_factory=list)
+    switching: str = "events"
+    formulation: str = ""
+    method: str = ""
+    rtol: float = math.nan
+    atol: float = math.nan
+    coordinate_names: tuple = ()
+    step_sizes: np.ndarray = field(default_factory=lambda: np.empty(0))
+    work: np.ndarray | None = None
+
+    @property
+    def n_steps(self) -> int:
+        """Accepted integration steps, summed over all segments."""
+        return int(self.step_sizes.size)
+
+    @property
+    def max_constraint_error(self) -> float:
+        """The maximum of (32) over the run."""
+        return float(np.max(self.constraint_error))
+
+    def coordinate(self, name):
+        """The row of ``s`` for the coordinate called ``name``."""
+        return self.s[self.coordinate_names.index(name)]
+
+    def velocity(self, name):
+        """The row of ``sd`` for the coordinate called ``name``."""
+        return self.sd[self.coordinate_names.index(name)]
+
+
+class Piece(NamedTuple):
+    """Output of one segment of a run, or of one stuck interval."""
+
+    t: np.ndarray            # shape (N,)
+    s: np.ndarray            # shape (n, N)
+    sd: np.ndarray           # shape (n, N)
+    mode: tuple | None       # the force's branch (None for a naive run)
+    stuck: int | None        # the switch a stuck piece is held on, else None
+    work: np.ndarray | None  # W(t), only when the run tracks work
+
+
+class Outputs:
+    """The output points of a run: which requested times are still due, and the pieces so far."""
+
+    def __init__(self, t_eval):
+        self.t_eval = t_eval
+        self.pieces = []
+        self.next = 0                  # index into t_eval of the next time due
+
+    def due(self, t0, until=None):
+        """The requested times from ``t0`` on (up to ``until``), or None for "every step"."""
+        if self.t_eval is None:
+            return None
+        rest = self.t_eval[self.next:]
+        if t0 is not None:
+            rest = rest[rest >= t0]
+        return rest if until is None else rest[rest <= until]
+
+    def add_segment(self, t, y, unpack, mode, t0, work_row):
+        """Store a segment's output (states ``y`` unpacked to s, s'); ``work_row``: y carries W last."""
+        if self.t_eval is not None:
+            self.next += t.size
+        elif self.pieces and t.size and t[0] == t0:
+            t, y = t[1:], y[:, 1:]           # the first point repeats the last segment's end
+        if t.size == 0:
+            return
+        work = None
+        if work_row:
+            y, work = y[:-1], y[-1]
+        pairs = [unpack(y[:, k], t[k]) for k in range(t.size)]
+        self.pieces.append(Piece(t, np.array([p[0] for p in pairs]).T, np.array([p[1] for p in pairs]).T,
+                                 mode, None, work))
+
+    def add_rest(self, times, s, mode, stuck, work):
+        """Store the output of an interval at rest at ``s``."""
+        if self.t_eval is not None:
+            self.next += times.size
+        if times.size:
+            self.pieces.append(Piece(times, np.repeat(s[:, None], times.size, 1),
+                                     np.zeros((s.size, times.size)), mode, stuck, work))
+
+    def assemble(self, track_work):
+        """``(t, s, sd, modes, work)`` of the whole run, with repeated times at joins dropped."""
+        pieces = self.pieces
+        t = np.concatenate([p.t for p in pieces])
+        s = np.concatenate([p.s for p in pieces], axis=1)
+        sd = np.concatenate([p.sd for p in pieces], axis=1)
+        modes = [(p.mode, p.stuck) for p in pieces for _ in range(p.t.size)]
+        keep = np.concatenate(([True], np.diff(t) > 0))
+        work = np.concatenate([p.work for p in pieces])[keep] if track_work else None
+        return t[keep], s[:, keep], sd[:, keep], [m for m, k in zip(modes, keep) if k], work
+
+
+def multipliers(system, formulation, t, s, sd, modes):
+    """lambda of (5) at each output point, from (8): Phi_s^T lambda = p1 - M s''.
+
+    While stuck (s'' = 0), the holding force of the stuck switch is a further
+    unknown acting along dh/ds', solved together with lambda.
+    """
+    lam = np.empty((system.r, t.size))
+    h = system.force.switching_functions if system.force is not None else None
+    for k in range(t.size):
+        mode, stuck = modes[k]
+        M, p1, f, Phi, gamma = system.dynamics(t[k], s[:, k], sd[:, k], mode)
+        if stuck is None:
+            sdd = formulation.accelerations(system, t[k], s[:, k], sd[:, k], mode)
+            lam[:, k] = np.linalg.lstsq(Phi.T, p1 - M @ sdd, rcond=None)[0]
+        else:
+            eps = 1e-7
+            direction = np.array([(h(t[k], s[:, k], sd[:, k] + eps * e)[stuck] - h(t[k], s[:, k], sd[:, k])[stuck]) / eps
+                                  for e in np.eye(system.n)])
+            A = np.column_stack((Phi.T, direction))
+            lam[:, k] = np.linalg.lstsq(A, p1, rcond=None)[0][:system.r]
+    return lam

@@ -1,0 +1,194 @@
+"""One segment of a run with scipy.integrate.solve_ivp, with events and the branch guard.
+
+Branch guard
+------------
+Where det Phi_z of the model's partition changes sign, a redundant-coordinate
+formulation either passes a dead position (Phi_s keeps full rank: fine) or
+jumps to another assembly branch near a configuration where Phi_s nearly loses
+rank.  At every such crossing the runner computes the Kantorovich number
+``h = sigma_max(Phi_s) |f| / sigma_min(Phi_s)^2``: Newton's method from the
+state converges to a unique nearby solution when h < 1/2 (sigma_max standing
+for the Lipschitz constant of Phi_s, which it matches for constraints made of
+lengths times sines and cosines).  Above the run's ``branch_limit`` (default
+:data:`~closedloop.simulation.options.BRANCH_LIMIT`) the state is no longer
+unambiguously on one branch, and the run stops with a
+:class:`~closedloop.errors.SingularConfigurationError`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau, solve_ivp
+
+from ..errors import IntegrationError, SingularConfigurationError
+
+__all__ = ["segment", "counting_solver", "SOLVER_CLASSES"]
+
+#: solve_ivp's methods by name, as OdeSolver classes.
+SOLVER_CLASSES = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+
+
+class _BudgetExceeded(Exception):
+    """Raised inside the right-hand side when max_nfev is used up."""
+
+
+def counting_solver(run, method):
+    """The solve_ivp method as an OdeSolver subclass that records every accepted step on ``run``.
+
+    It stops the integration (a failed step) when the run's ``max_steps`` is reached.
+    """
+    base = SOLVER_CLASSES[method] if isinstance(method, str) else method
+    max_steps = run.options.max_steps
+
+    class Counted(base):
+        def _step_impl(self):
+            t_before = self.t
+            success, message = super()._step_impl()
+            if success and self.t != t_before:
+                run.step_sizes.append(abs(self.t - t_before))
+                run.t_reached = self.t
+                if len(run.step_sizes) >= max_steps and self.t != self.t_bound:
+                    run.steps_exhausted = True
+                    return False, f"max_steps = {max_steps} reached"
+            return success, message
+
+    Counted.__name__ = Counted.__qualname__ = base.__name__
+    return Counted
+
+
+def _events(run, unpack, mode):
+    """Terminal events at every switch (and stop_when), then the branch guard's det Phi_z (not terminal)."""
+    h = run.force.switching_functions if run.names else None
+    events = []
+    for i in range(len(run.names)):
+        def event(t, y, i=i):
+            s, sd = unpack(y, t)
+            return h(t, s, sd)[i]
+
+        event.terminal, event.direction = True, (-1.0 if mode[i] else 1.0)
+        events.append(event)
+    if run.options.stop_when is not None:
+        def stop(t, y):
+            return run.options.stop_when(t, *unpack(y, t))
+
+        stop.terminal, stop.direction = True, 1.0
+        events.append(stop)
+    terminal = len(events)
+    if not run.formulation.guards_branch:           # else the formulation guards its branch itself
+        system = run.system
+
+        def partition(t, y):                        # det Phi_z changes sign at a singular configuration of (20)
+            return np.linalg.det(system.jacobian(unpack(y, t)[0])[:, system.z_index])
+
+        events.append(partition)
+    return events, terminal
+
+
+def _guarded(rhs, run, reached, overflow):
+    """The right-hand side with the evaluation budget and overflow caught."""
+    budget = run.evaluations_left()
+    count = [0]
+
+    def guarded_rhs(t, y):
+        reached[0] = t
+        count[0] += 1
+        if count[0] > budget:
+            raise _BudgetExceeded
+        try:
+            return rhs(t, y)
+        except (OverflowError, FloatingPointError) as error:
+            # A trial stage may overflow where a shorter step would not: hand the
+            # solver a non-finite slope, so that it rejects the step, and remember it.
+            overflow.append((t, str(error)))
+            return np.full(y.size, np.nan)
+
+    return guarded_rhs
+
+
+def segment(run, t0, s0, sd0, mode):
+    """Integrate on branch ``mode`` from ``t0`` until t_end or the next switch: a SegmentEnd."""
+    options, formulation = run.options, run.formulation
+    y0, unpack, rhs = run.start_segment(s0, sd0, mode)
+    events, terminal = _events(run, unpack, mode)
+    reached, overflow = [t0], []                    # last time the rhs was evaluated; (t, message) of overflows
+    try:
+        sol = solve_ivp(_guarded(rhs, run, reached, overflow), (t0, run.t_end), y0,
+                        method=counting_solver(run, formulation.integrator(run.system, options.method)),
+                        rtol=options.rtol, atol=options.atol, t_eval=run.outputs.due(t0), events=events or None,
+                        **options.solver_options)
+    except _BudgetExceeded:
+        raise run.budget_error(reached[0]) from None
+    except ValueError as error:
+        if "different signs" not in str(error):
+            raise
+        raise IntegrationError(
+            f"{options.method_name} could not locate a switch ({', '.join(run.names)}) in the step after "
+            f"t = {_time_reached(run, t0):.6g} s (h = {_last_step(run):.3g} s): a switching function changed "
+            "sign between the ends of the step but not along its interpolant, so the step is too long for the "
+            "motion; try tighter tolerances, a max_step, or another formulation"
+        ) from None
+    run.nfev += sol.nfev
+    if terminal < len(events):
+        _check_crossings(run, sol.t_events[terminal], sol.y_events[terminal], unpack)
+    if sol.status == -1:
+        raise IntegrationError(_failure_message(run, sol.message, t0, overflow))
+    t_out = np.asarray(sol.t, dtype=float)          # solve_ivp gives lists when t_eval is empty
+    y_out = np.asarray(sol.y, dtype=float).reshape(y0.size, t_out.size)
+    run.check_finite(t_out, y_out)
+    run.store_segment(t_out, y_out, s0, mode, t0)
+    if sol.status == 0:                             # reached t_end: no end state is needed
+        return run.end_of_segment(run.t_end, None, unpack, None)
+    times = [te[0] if te.size else np.inf for te in sol.t_events[:terminal]]
+    event = int(np.argmin(times))
+    return run.end_of_segment(sol.t_events[event][0], sol.y_events[event][0], unpack, event)
+
+
+def _check_crossings(run, times, states, unpack):
+    """The branch guard (see the module's notes) at each zero of det Phi_z."""
+    for t, y in zip(times, states):
+        f, Phi = run.system.constraints_and_jacobian(unpack(y, t)[0])
+        singular_values = np.linalg.svd(Phi, compute_uv=False)
+        largest, smallest, error = singular_values[0], singular_values[-1], np.linalg.norm(f)
+        kantorovich = math.inf if smallest == 0 else largest * error / smallest**2
+        if kantorovich > run.options.branch_limit:
+            raise SingularConfigurationError(
+                f"the path crossed a singular configuration of Phi_z at t = {t:.6g} s where Phi_s nearly "
+                f"loses rank (cond(Phi_s) = {largest / smallest:.3g}, |f| = {error:.3g}, Kantorovich "
+                f"number {kantorovich:.3g} > {run.options.branch_limit:g}): the constraint error is as large as "
+                "the distance between assembly branches, so the run may have changed branch; tighten rtol "
+                "and atol (at a bifurcation itself no formulation can choose the branch)"
+            )
+        run.partition_singularities.append(float(t))
+
+
+def _time_reached(run, t0):
+    return t0 if run.t_reached is None or run.t_reached < t0 else run.t_reached
+
+
+def _last_step(run):
+    return run.step_sizes[-1] if run.step_sizes else math.nan
+
+
+def _failure_message(run, message, t0, overflow):
+    """The IntegrationError text for a solve_ivp failure: time, quantity, what to try."""
+    t, h, name = _time_reached(run, t0), _last_step(run), run.options.method_name
+    if run.steps_exhausted:
+        text = (f"{name} reached max_steps = {run.options.max_steps} at t = {t:.6g} s of "
+                f"t_end = {run.t_end:g} s (last step size h = {h:.3g} s, mean "
+                f"{np.mean(run.step_sizes[-100:]):.3g} s over the last 100 steps): the problem is stiff "
+                "for this method, or the run too long")
+        advice = run.advice() + ", or raise max_steps"
+    elif message and "step size is less than spacing" in message:
+        text = (f"{name} failed at t = {t:.6g} s: the step size underflowed (it must stay "
+                f"above 10 ulp(t) = {10 * np.spacing(abs(t)):.3g} s; the last accepted step was "
+                f"h = {h:.3g} s)")
+        advice = run.advice()
+    else:
+        text = f"{name} failed at t = {t:.6g} s (last step h = {h:.3g} s): {message}"
+        advice = run.advice()
+    if overflow:
+        text += (f"; the right-hand side overflowed ({overflow[-1][1]}) at t = {overflow[-1][0]:.6g} s, "
+                 "the accelerations are beyond the range of floating-point numbers")
+    return f"{text}; {advice}"

@@ -1,0 +1,163 @@
+"""The switching rule, written once over K states: :func:`closedloop.simulate`, its compiled-DOP853
+runner and the batch integrator of the basin map all decide with these functions.
+
+A switched force (:class:`closedloop.forces.SwitchedForce`) has switching functions h_i(t, s, s').
+Each integration segment runs on one branch (``mode``) of every switch, so its right-hand side is
+smooth; where h_i crosses zero the segment stops, and the branch is chosen from the rate of h_i
+along the constrained motion (12) on either branch, ``off`` (switch i off) and ``on``:
+
+- both rates > 0: the state leaves onto the "on" side (crossed, or turned back if it was there);
+- both rates < 0: it leaves onto the "off" side;
+- ``off > 0 > on``: both branches push the state onto the surface (Filippov sliding).  For a
+  velocity-level switch that may stick (the slider-crank's gas force acts only while x_C' > 0)
+  the **sticking rule** holds the mechanism at rest; any other switch is refused;
+- otherwise (grazing, or both branches repel) the state keeps its branch and turns back.
+
+Sticking rule
+-------------
+For a one-degree-of-freedom mechanism x_C' = 0 means the whole mechanism is at rest.  It is held
+with s fixed and s' = 0 while the force needed to hold it lies between the two branches, that is
+while the **release margin** ``min(off, -on)`` of the rates at rest stays > 0.  Release is at the
+first zero of the margin (:func:`locate_release`), onto the side that the "off" rate then points
+to.  A stuck state costs no right-hand-side evaluations, so no integration chatters there.
+
+Stalls
+------
+A stop at a switch that makes no progress in time (less than :data:`MIN_PROGRESS` relative to
+max(1, |t|)) counts as a stall; more than :data:`MAX_STALLS` stalls in a row is chattering, and
+the run stops with an :class:`~closedloop.errors.IntegrationError`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import IntegrationError
+
+__all__ = ["RATE_STEP", "SURFACE", "MIN_PROGRESS", "MAX_STALLS", "RELEASE_XTOL", "switching_rate", "decide",
+           "on_surface", "release_margin", "side_after_release", "locate_release", "no_progress",
+           "refuse_sliding", "chattering_error"]
+
+#: Forward-difference step of the rates dh/dt along the motion [s].
+RATE_STEP = 1e-7
+#: |h| at or below SURFACE x (1 + max|state|) counts as "on the surface" at the start of a run.
+SURFACE = 1e-12
+#: A stop closer than MIN_PROGRESS x max(1, |t|) seconds to the previous one makes no progress.
+MIN_PROGRESS = 1e-12
+#: Stops without progress in a row after which a state chatters.
+MAX_STALLS = 50
+#: Accuracy of a located release time [s].
+RELEASE_XTOL = 1e-12
+
+
+def switching_rate(h, t, s, sd, sdd, h_now=None):
+    """dh/dt along the motion: ``(h(t + e, s + e s', s' + e s'') - h(t, s, s')) / e``, e = RATE_STEP.
+
+    Works for one state (s of shape (n,)) or K states (shape (n, K)) alike, as
+    ``h`` does; ``h_now``, when given, is ``h(t, s, sd)``.
+    """
+    eps = RATE_STEP
+    if h_now is None:
+        h_now = h(t, s, sd)
+    return (h(t + eps, s + eps * sd, sd + eps * sdd) - h_now) / eps
+
+
+def decide(off, on, side):
+    """The rule at states on a switching surface: ``(new side, sticks)``.
+
+    Parameters
+    ----------
+    off, on : float or ndarray
+        Rates of the switching function with the switch off and on.
+    side : bool or ndarray of bool
+        The branch the state is on.
+
+    Returns
+    -------
+    new_side : bool or ndarray of bool
+        True (on) where both rates are > 0, False where both are < 0, else ``side``.
+    sticks : bool or ndarray of bool
+        Where both branches push onto the surface (``off > 0 > on``); the caller
+        applies the sticking rule there (``new_side`` is then ``side``).
+    """
+    off, on = np.asarray(off), np.asarray(on)
+    new_side = np.where((off > 0) & (on > 0), True, np.where((off < 0) & (on < 0), False, side))
+    sticks = (off > 0) & (on < 0)
+    if new_side.ndim == 0:
+        return bool(new_side), bool(sticks)
+    return new_side, sticks
+
+
+def on_surface(h, scale):
+    """Where a switching value counts as zero at the start of a run (relative to ``scale``)."""
+    return np.abs(h) <= SURFACE * scale
+
+
+def release_margin(off, on):
+    """``min(off, -on)``: > 0 while the holding force lies between the branches (held), else released."""
+    return np.minimum(off, -on)
+
+
+def side_after_release(off):
+    """The branch a released state leaves on: "on" where the free motion rises onto it (off > 0)."""
+    return off > 0
+
+
+def locate_release(margin, t_held, t_free, margin_held, margin_free, xtol=RELEASE_XTOL):
+    """The zero of the release margin between a held and a released time, for K states at once.
+
+    Regula falsi with the Illinois modification on the bracket ``[t_held, t_free]``
+    (margin > 0 at ``t_held``, <= 0 at ``t_free``), to ``xtol`` seconds.
+
+    Parameters
+    ----------
+    margin : callable
+        ``margin(t, index) -> ndarray``: the margins at times ``t`` (shape (k,)) of
+        the states ``index`` (indices into the K states).
+    t_held, t_free, margin_held, margin_free : ndarray, shape (K,)
+
+    Returns
+    -------
+    ndarray, shape (K,)
+    """
+    lo, hi = np.array(t_held, dtype=float), np.array(t_free, dtype=float)
+    m_lo, m_hi = np.array(margin_held, dtype=float), np.array(margin_free, dtype=float)
+    side = np.zeros(lo.shape, dtype=int)            # the end kept twice in a row (Illinois)
+    active = np.flatnonzero(hi - lo > xtol)
+    for _ in range(100):
+        if active.size == 0:
+            break
+        a, b, fa, fb = lo[active], hi[active], m_lo[active], m_hi[active]
+        t = b - fb * (b - a) / (fb - fa)
+        t = np.where((t > a) & (t < b), t, 0.5 * (a + b))
+        m = margin(t, active)
+        held = m > 0
+        lo[active[held]], m_lo[active[held]] = t[held], m[held]
+        hi[active[~held]], m_hi[active[~held]] = t[~held], m[~held]
+        # Illinois: halve the value at the end that stayed, so that both ends move
+        m_hi[active[held & (side[active] > 0)]] *= 0.5
+        m_lo[active[~held & (side[active] < 0)]] *= 0.5
+        side[active] = np.where(held, 1, -1)
+        active = active[hi[active] - lo[active] > xtol]
+    return hi
+
+
+def no_progress(t_new, t_old):
+    """Whether a stop at ``t_new`` made no progress since ``t_old`` (see Stalls)."""
+    return t_new - t_old < MIN_PROGRESS * np.maximum(1.0, np.abs(t_old))
+
+
+def refuse_sliding(t, name):
+    """The error for a state that slides along a switch not declared able to stick."""
+    return IntegrationError(
+        f"at t = {float(np.max(t)):.6g} s the state slides along switch {name!r}, which is not declared "
+        "able to stick; regularise the force or declare can_stick"
+    )
+
+
+def chattering_error(t, name, advice):
+    """The error for a state that stalls on a switch more than MAX_STALLS times in a row."""
+    return IntegrationError(
+        f"the state chatters on switch {name!r} at t = {float(np.min(t)):.6g} s: {MAX_STALLS} stops without "
+        f"progress; {advice}"
+    )
