@@ -91,7 +91,8 @@ def test_batch_releases_a_stuck_slider_where_simulate_does():
     assert start == 0.0 and len(later) >= 2
     batch = integrate_outcomes(system, [phi0], [0.0], 4.0, finish_early=False)
     assert batch.stuck_at[0] == 0.0
-    assert batch.released_at[0] == pytest.approx(end, abs=1e-3)
+    # one release rule (closedloop.simulation.switching.locate_release) for both: the same root
+    assert batch.released_at[0] == pytest.approx(end, abs=1e-11)
     assert batch.final_phi[0] == pytest.approx(result.coordinate("phi")[-1], abs=1e-6)
     assert batch.final_dphi[0] == result.velocity("phi")[-1] == 0.0     # stuck again at the end
 

@@ -52,6 +52,7 @@ import numpy as np
 from ..errors import ConvergenceError, InputError, IntegrationError, SingularConfigurationError
 from ..kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE
 from ..linalg import solve_many
+from ..simulation import switching as rule
 from ..slider_crank import MOTIONS, initial_state, motion_codes, slider_crank_system
 
 __all__ = ["BasinMap", "basin_map", "integrate_outcomes", "reference_outcomes", "boundary_cells",
@@ -59,12 +60,6 @@ __all__ = ["BasinMap", "basin_map", "integrate_outcomes", "reference_outcomes", 
 
 #: Step of the fixed-step scheme [s]; its choice is measured in the book's basin chapter.
 DEFAULT_STEP = 0.02
-#: Finite-difference step of the switching-function rates, as in simulate().
-_RATE_EPS = 1e-7
-#: Switching-function values this small (relative to the state) count as "on the surface" at t = 0.
-_SURFACE = 1e-12
-_MIN_PROGRESS = 1e-12      # a stop at a switch closer than this (s) to the last one makes no progress
-_MAX_STALLS = 50
 
 
 def grid_values(start, stop, count):
@@ -152,9 +147,8 @@ class _Model:
         return self.force.switching_functions_many(t, s, sd)
 
     def rates(self, t, s, sd, sdd):
-        """dh/dt of every switching function along the motion, as simulate() computes it."""
-        eps = _RATE_EPS
-        return (self.switching(t + eps, s + eps * sd, sd + eps * sdd) - self.switching(t, s, sd)) / eps
+        """dh/dt of every switching function along the motion (the rule's :func:`switching_rate`)."""
+        return rule.switching_rate(self.switching, t, s, sd, sdd)
 
     def side_rates(self, t, s, sd, q, qd, z, mode, i):
         """Rates of switch i on its "off" and "on" branches at the given states (one switch for all)."""
@@ -253,7 +247,7 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
         _advance(model, cells, T)
         _check_stuck(model, cells, T)
         if k == count:                               # cells stopped at a switch finish the run
-            for _ in range(_MAX_STALLS * 4):
+            for _ in range(rule.MAX_STALLS * 4):
                 if not np.any(~cells.done & (cells.stuck < 0) & (cells.t < T)):
                     break
                 _advance(model, cells, T)
@@ -302,31 +296,25 @@ def _initial_cells(system, model, phi0, dphi0):
     cells.mode = h > 0
     scale = 1.0 + np.abs(np.concatenate((s, sd))).max(axis=0)
     for i in range(k):
-        on_surface = np.flatnonzero((np.abs(h[i]) <= _SURFACE * scale) & (cells.stuck < 0))
+        on_surface = np.flatnonzero(rule.on_surface(h[i], scale) & (cells.stuck < 0))
         if on_surface.size:
             _decide(model, cells, on_surface, i, 0.0, s[:, on_surface], sd[:, on_surface])
     return cells
 
 
 def _decide(model, cells, idx, i, t, s, sd):
-    """The branch of switch i for cells ``idx`` on its surface: simulate()'s rule, vectorised."""
+    """The branch of switch i for cells ``idx`` on its surface: the rule of :mod:`closedloop.simulation.switching`."""
     off, on = model.side_rates(t, s, sd, cells.q[idx], cells.qd[idx], cells.z[:, idx], cells.mode[:, idx], i)
-    mode = cells.mode[i, idx].copy()
-    mode[(off > 0) & (on > 0)] = True
-    mode[(off < 0) & (on < 0)] = False
-    sticks = (off > 0) & (0 > on)
+    mode, sticks = rule.decide(off, on, cells.mode[i, idx])
     if np.any(sticks) and not model.force.can_stick[i]:
-        raise IntegrationError(
-            f"at t = {float(np.max(t)):.6g} s the state slides along switch {model.force.switch_names[i]!r}, "
-            "which is not declared able to stick"
-        )
+        raise rule.refuse_sliding(t, model.force.switch_names[i])
     cells.mode[i, idx] = mode
     cells.cached[idx] = False
     held = idx[sticks]
     cells.stuck[held] = i
     cells.stuck_since[held] = np.broadcast_to(t, idx.shape)[sticks]
     cells.qd[held] = 0.0
-    cells.margin[held] = np.minimum(off, -on)[sticks]
+    cells.margin[held] = rule.release_margin(off, on)[sticks]
     first = held[np.isnan(cells.first_stuck[held])]
     cells.first_stuck[first] = cells.stuck_since[first]
     cells.events[idx] += 1
@@ -409,12 +397,11 @@ def _advance(model, cells, T):
     qe, qde, event = _rk4(model, t0[sub], fraction * dt[sub], q0[sub], qd0[sub], z0[:, sub],
                           mode[:, sub], _take(first, sub))
     te = t0[sub] + fraction * dt[sub]
-    cells.stalls[cells_sub] = np.where(te - t0[sub] < _MIN_PROGRESS, cells.stalls[cells_sub] + 1, 0)
-    if np.any(cells.stalls[cells_sub] > _MAX_STALLS):
-        raise IntegrationError(
-            f"a cell chatters on a switch at t = {float(np.min(te)):.6g} s: {_MAX_STALLS} stops without "
-            "progress; use a smaller step"
-        )
+    cells.stalls[cells_sub] = np.where(rule.no_progress(te, t0[sub]), cells.stalls[cells_sub] + 1, 0)
+    chattering = cells.stalls[cells_sub] > rule.MAX_STALLS
+    if np.any(chattering):
+        k = int(np.argmax(chattering))
+        raise rule.chattering_error(te[k], model.force.switch_names[which[k]], "use a smaller step")
     cells.t[cells_sub], cells.q[cells_sub], cells.qd[cells_sub] = te, qe, qde
     cells.z[:, cells_sub] = event["s"][model.z]
     _record(cells, cells_sub, te)
@@ -493,33 +480,45 @@ def _record(cells, idx, t):
         cells.done[turned] = True
 
 
+def _rest_margins(model, cells, i, s, rows, t):
+    """The release margin of switch i at rest, at times ``t``, for the stuck cells ``rows`` (positions ``s``)."""
+    rest = np.zeros_like(s)
+    rates = []
+    for side in (False, True):
+        trial = cells.mode[:, rows].copy()
+        trial[i] = side
+        sdd = model.rest_accelerations(t, s, trial)
+        rates.append(model.rates(t, s, rest, sdd)[i])
+    return rates
+
+
 def _check_stuck(model, cells, T):
-    """The sticking rule: a stuck cell is released where the holding force leaves the branches' range."""
+    """The sticking rule: a stuck cell is released where the holding force leaves the branches' range.
+
+    The margin is checked at every grid time; where it has become <= 0 the
+    release is located between the last check and now by the rule's
+    :func:`~closedloop.simulation.switching.locate_release`, as simulate() does.
+    """
     idx = np.flatnonzero((cells.stuck >= 0) & ~cells.done)
     if idx.size == 0:
         return
     for i in np.unique(cells.stuck[idx]):
         sub = idx[cells.stuck[idx] == i]
         s, _ = model.configuration(cells.q[sub], cells.z[:, sub])
-        rest = np.zeros_like(s)
-        rates = []
-        for side in (False, True):
-            trial = cells.mode[:, sub].copy()
-            trial[i] = side
-            sdd = model.rest_accelerations(T, s, trial)
-            rates.append(model.rates(T, s, rest, sdd)[i])
-        off, on = rates
-        margin = np.minimum(off, -on)
+        off, on = _rest_margins(model, cells, i, s, sub, T)
+        margin = rule.release_margin(off, on)
         free = margin <= 0
         if np.any(free):
-            cells_free = sub[free]
-            previous = cells.margin[cells_free]
-            step_back = (T - cells.t[cells_free])
-            weight = np.where(previous - margin[free] > 0, previous / (previous - margin[free]), 1.0)
-            cells.t[cells_free] = cells.t[cells_free] + np.clip(weight, 0.0, 1.0) * step_back
+            cells_free, s_free = sub[free], s[:, free]
+
+            def margins(times, rows):
+                return rule.release_margin(*_rest_margins(model, cells, i, s_free[:, rows], cells_free[rows], times))
+
+            cells.t[cells_free] = rule.locate_release(margins, cells.t[cells_free], np.full(cells_free.size, T),
+                                                      cells.margin[cells_free], margin[free])
             fresh = cells_free[np.isnan(cells.first_release[cells_free])]
             cells.first_release[fresh] = cells.t[fresh]
-            cells.mode[i, cells_free] = off[free] > 0
+            cells.mode[i, cells_free] = rule.side_after_release(off[free])
             cells.stuck[cells_free] = -1
             cells.cached[cells_free] = False
             cells.events[cells_free] += 1
