@@ -127,8 +127,54 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         If the code fails (the message names the time and the reason).
     """
     y0 = np.asarray(y0, dtype=float)
-    count = 0                               # right-hand-side evaluations
-    failure = []
+    failure = []                            # an exception raised inside the compiled code's callbacks
+    counted, evaluations = _counting(rhs, max_nfev, failure)
+    directions = tuple(float(d) for d in directions)
+    watch = _StepWatch(switching, directions, t0, y0, first_step, keep_steps=outputs is None, failure=failure)
+    if outputs is None:
+        targets, wanted = [t_end], set()
+    else:
+        wanted = {float(t) for t in outputs}
+        targets = sorted(t for t in wanted | {float(t_end)} if t > t0)
+        if t0 not in wanted:
+            watch.times, watch.states = [], []
+    with warnings.catch_warnings():          # the code's warnings become the errors raised below
+        warnings.simplefilter("ignore", UserWarning)
+        for target in targets:
+            if target <= watch.last_t:
+                continue
+            solver = ode(counted).set_integrator("dop853", rtol=rtol, atol=atol, nsteps=nsteps,
+                                                 first_step=min(watch.last_step, target - watch.last_t),
+                                                 max_step=max_step)
+            solver.set_solout(watch.solout)
+            solver.set_initial_value(watch.last_y, watch.last_t)
+            solver.integrate(target)
+            if failure:
+                raise failure[0]
+            if watch.hit is not None:
+                return _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failure, evaluations,
+                                          outputs is None, y0.size)
+            code = solver.get_return_code()
+            if code < 0:
+                raise IntegrationError(
+                    f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
+                    "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains"
+                )
+            watch.last_t, watch.last_y = target, np.array(solver.y, dtype=float)
+            if target in wanted:
+                watch.times.append(target)
+                watch.states.append(watch.last_y.copy())
+    return Segment(np.array(watch.times), np.array(watch.states).reshape(len(watch.times), y0.size).T, t_end,
+                   watch.last_y.copy(), None, evaluations(), watch.last_step, watch.steps, np.array(watch.ends).T)
+
+
+def _counting(rhs, max_nfev, failure):
+    """``(counted, evaluations)``: rhs that counts its calls (and stops at max_nfev), and the count.
+
+    The compiled caller cannot propagate an exception: a failing call stores it
+    in ``failure`` and returns NaN, and the segment re-raises it.
+    """
+    count = 0
 
     if max_nfev == math.inf:
         def counted(t, y):
@@ -136,7 +182,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
             count += 1
             try:
                 return rhs(t, y)
-            except Exception as error:      # the compiled caller cannot propagate it: stop and re-raise
+            except Exception as error:
                 failure.append(error)
                 return [math.nan] * y.size
     else:
@@ -151,79 +197,57 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                 failure.append(error)
                 return [math.nan] * y.size
 
-    directions = tuple(float(d) for d in directions)
-    start_values = list(switching(t0, y0))
-    times, states = [t0], [y0.copy()]
-    steps, ends = [], [y0.copy()]
-    # The last accepted step end (time, state, switching values), its step size, and the step that crossed.
-    last_t, last_y, last_g, last_step, hit = t0, y0.copy(), start_values, first_step, None
-    keep_steps = outputs is None
+    return counted, lambda: count
 
-    def solout(t, y):
-        nonlocal last_t, last_y, last_g, last_step, hit
-        if failure:
+
+class _StepWatch:
+    """The ``solout`` callback: records every accepted step and stops at the first watched sign change.
+
+    ``last_t, last_y, last_g``: the last accepted step end and its switching
+    values; ``last_step``: its step size; ``hit``: ``(t, y, g)`` of the step that
+    crossed, or None; ``times, states``: the outputs; ``steps, ends``: every step.
+    """
+
+    def __init__(self, switching, directions, t0, y0, first_step, keep_steps, failure):
+        self.switching, self.directions, self.failure, self.keep_steps = switching, directions, failure, keep_steps
+        self.last_t, self.last_y, self.last_g = t0, y0.copy(), list(switching(t0, y0))
+        self.last_step, self.hit = first_step, None
+        self.times, self.states = [t0], [y0.copy()]
+        self.steps, self.ends = [], [y0.copy()]
+
+    def solout(self, t, y):
+        if self.failure:
             return -1
-        if t <= last_t:                      # the call at the start point
+        if t <= self.last_t:                 # the call at the start point
             return 0
-        g = list(switching(t, y))
-        for b, a, direction in zip(last_g, g, directions):
+        g = list(self.switching(t, y))
+        for b, a, direction in zip(self.last_g, g, self.directions):
             if a != b and ((direction >= 0 and b <= 0.0 <= a) or (direction <= 0 and b >= 0.0 >= a)):
-                hit = (t, y.copy(), g)
+                self.hit = (t, y.copy(), g)
                 return -1
-        last_step = t - last_t
-        steps.append(last_step)
+        self.last_step = t - self.last_t
+        self.steps.append(self.last_step)
         y = y.copy()                         # one copy serves all three lists: none is changed in place
-        ends.append(y)
-        last_t, last_y, last_g = t, y, g
-        if keep_steps:
-            times.append(t)
-            states.append(y)
+        self.ends.append(y)
+        self.last_t, self.last_y, self.last_g = t, y, g
+        if self.keep_steps:
+            self.times.append(t)
+            self.states.append(y)
         return 0
 
-    if outputs is None:
-        targets, wanted = [t_end], set()
-    else:
-        wanted = {float(t) for t in outputs}
-        targets = sorted(t for t in wanted | {float(t_end)} if t > t0)
-        if t0 not in wanted:
-            times, states = [], []
-    with warnings.catch_warnings():          # the code's warnings become the errors raised below
-        warnings.simplefilter("ignore", UserWarning)
-        for target in targets:
-            if target <= last_t:
-                continue
-            solver = ode(counted).set_integrator("dop853", rtol=rtol, atol=atol, nsteps=nsteps,
-                                                 first_step=min(last_step, target - last_t),
-                                                 max_step=max_step)
-            solver.set_solout(solout)
-            solver.set_initial_value(last_y, last_t)
-            solver.integrate(target)
-            if failure:
-                raise failure[0]
-            code = solver.get_return_code()
-            if hit is not None:
-                t_event, y_event, event = _locate(counted, switching, (last_t, last_y, last_g), hit,
-                                                  directions, rtol, atol, failure)
-                if failure:
-                    raise failure[0]
-                if outputs is None:                 # solve_ivp's convention: the event ends sol.t
-                    times.append(t_event)
-                    states.append(y_event)
-                ends.append(y_event)
-                return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_event,
-                               y_event, event, count, last_step, steps, np.array(ends).T)
-            if code < 0:
-                raise IntegrationError(
-                    f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
-                    "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains"
-                )
-            last_t, last_y = target, np.array(solver.y, dtype=float)
-            if target in wanted:
-                times.append(target)
-                states.append(last_y.copy())
-    return Segment(np.array(times), np.array(states).reshape(len(times), y0.size).T, t_end,
-                   last_y.copy(), None, count, last_step, steps,
-                   np.array(ends).T)
+
+def _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failure, evaluations, every_step, size):
+    """The Segment of a segment stopped by a switch: locate the crossing in the step that crossed."""
+    t_event, y_event, event = _locate(counted, switching, (watch.last_t, watch.last_y, watch.last_g), watch.hit,
+                                      directions, rtol, atol, failure)
+    if failure:
+        raise failure[0]
+    if every_step:                          # solve_ivp's convention: the event ends sol.t
+        watch.times.append(t_event)
+        watch.states.append(y_event)
+    watch.ends.append(y_event)
+    return Segment(np.array(watch.times), np.array(watch.states).reshape(len(watch.times), size).T, t_event,
+                   y_event, event, evaluations(), watch.last_step, watch.steps, np.array(watch.ends).T)
 
 
 def _hermite_root(g0, g1, d0, d1):
