@@ -1,5 +1,6 @@
 """Stiff Baumgarte gains: RK4's stability theory against the integration, step counts, clear errors."""
 
+import re
 import math
 
 import numpy as np
@@ -106,7 +107,7 @@ def test_max_steps_error_names_time_step_and_advice(slider_crank):
     with pytest.raises(IntegrationError) as error:
         simulate(slider_crank, state, 1.0, formulation=Baumgarte(1e5, 1e5), method="RK45", max_steps=300)
     message = str(error.value)
-    assert "max_steps = 300" in message and "at t = " in message and "h = " in message
+    assert "max_steps = 300" in message and "at t = " in message and "last step size " in message
     assert "implicit method" in message and "alpha = 100000" in message
     t_reached = float(message.split("at t = ")[1].split(" s")[0])
     assert 0 < t_reached < 0.1                         # 300 steps of a few microseconds
@@ -127,7 +128,7 @@ def test_step_size_underflow_error_names_time_and_step():
     with pytest.raises(IntegrationError) as error:
         simulate(system, state, 2.0, formulation=Baumgarte(), method="RK45")
     message = str(error.value)
-    assert "step size underflowed" in message and "at t = 1 s" in message and "h = " in message
+    assert "step size underflowed" in message and "at t = 1 s" in message and re.search(r"the last accepted step was [0-9.]+e-1[4-6] s", message)
     assert "implicit method" in message
 
 

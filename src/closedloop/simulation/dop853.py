@@ -306,8 +306,8 @@ def _locate(rhs, switching, start, hit, directions, rtol, atol, failure):
     """
     ta, ya, ga = start
     tb, yb, gb = hit
-    h = tb - ta
-    eps = 1e-7 * max(abs(h), 1e-9)
+    span = tb - ta
+    eps = 1e-7 * max(abs(span), 1e-9)
     fa, fb = np.asarray(rhs(ta, ya)), np.asarray(rhs(tb, yb))
     rates_a = [(after - before) / eps for before, after in zip(ga, switching(ta + eps, ya + eps * fa))]
     rates_b = [(after - before) / eps for before, after in zip(gb, switching(tb + eps, yb + eps * fb))]
@@ -317,7 +317,7 @@ def _locate(rhs, switching, start, hit, directions, rtol, atol, failure):
         crossed = (before <= 0.0 <= after and d >= 0) or (before >= 0.0 >= after and d <= 0)
         if not crossed or before == after:
             continue
-        root = ta + h * _hermite_root(before, after, h * rates_a[i], h * rates_b[i])
+        root = ta + span * _hermite_root(before, after, span * rates_a[i], span * rates_b[i])
         if best is None or root < best[0]:
             best = (root, i)
     t_star, i = best

@@ -19,21 +19,21 @@ __all__ = ["segment"]
 
 def _switching_values(run, unpack):
     """``switching(t, y) -> list``: the values of the switching functions (and stop_when) at a state."""
-    h = run.force.switching_functions if run.names else None
+    switching_functions = run.force.switching_functions if run.names else None
     stop_when = run.options.stop_when
-    if stop_when is None and h is not None:        # the common case, called after every step
+    if stop_when is None and switching_functions is not None:        # the common case, called after every step
         def switching(t, y):
             s, sd = unpack(y, t)
-            values = h(t, s, sd)
+            values = switching_functions(t, s, sd)
             return values.tolist() if isinstance(values, np.ndarray) else list(values)
 
         return switching
 
     def switching(t, y):
-        if h is None and stop_when is None:
+        if switching_functions is None and stop_when is None:
             return ()
         s, sd = unpack(y, t)
-        values = h(t, s, sd) if h is not None else []
+        values = switching_functions(t, s, sd) if switching_functions is not None else []
         values = values.tolist() if isinstance(values, np.ndarray) else list(values)
         return values + [stop_when(t, s, sd)] if stop_when is not None else values
 

@@ -141,9 +141,9 @@ class Run:
 
     def side_rates(self, t, s, sd, mode, i):
         """dh_i/dt along the constrained motion (12) with switch i off and on: ``(off, on)``."""
-        h = self.force.switching_functions
-        h_now = h(t, s, sd)
-        return tuple(rule.switching_rate(h, t, s, sd, self._accelerations(t, s, sd, branch), h_now)[i]
+        switching_functions = self.force.switching_functions
+        now = switching_functions(t, s, sd)
+        return tuple(rule.switching_rate(switching_functions, t, s, sd, self._accelerations(t, s, sd, branch), now)[i]
                      for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
 
     def decide(self, t, s, sd, mode, i):
@@ -161,10 +161,10 @@ class Run:
         """The branch of every switch at the start, and the switch the state sticks on (or None)."""
         if self.force is None or not self.names:
             return (), None
-        h = self.force.switching_functions(t, s, sd)
-        mode = tuple(bool(v > 0) for v in h)
+        values = self.force.switching_functions(t, s, sd)
+        mode = tuple(bool(v > 0) for v in values)
         scale = 1.0 + np.max(np.abs(np.concatenate((s, sd))))
-        for i, v in enumerate(h):
+        for i, v in enumerate(values):
             if rule.on_surface(v, scale):
                 mode, action = self.decide(t, s, sd, mode, i)
                 if action == "stuck":

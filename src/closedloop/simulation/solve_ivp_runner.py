@@ -60,12 +60,12 @@ def counting_solver(run, method):
 
 def _events(run, unpack, mode):
     """Terminal events at every switch (and stop_when), then the branch guard's det Phi_z (not terminal)."""
-    h = run.force.switching_functions if run.names else None
+    switching_functions = run.force.switching_functions if run.names else None
     events = []
     for i in range(len(run.names)):
         def event(t, y, i=i):
             s, sd = unpack(y, t)
-            return h(t, s, sd)[i]
+            return switching_functions(t, s, sd)[i]
 
         event.terminal, event.direction = True, (-1.0 if mode[i] else 1.0)
         events.append(event)
@@ -125,7 +125,7 @@ def segment(run, t0, s0, sd0, mode):
             raise
         raise IntegrationError(
             f"{options.method_name} could not locate a switch ({', '.join(run.names)}) in the step after "
-            f"t = {_time_reached(run, t0):.6g} s (h = {_last_step(run):.3g} s): a switching function changed "
+            f"t = {_time_reached(run, t0):.6g} s (step {_last_step(run):.3g} s): a switching function changed "
             "sign between the ends of the step but not along its interpolant, so the step is too long for the "
             "motion; try tighter tolerances, a max_step, or another formulation"
         ) from None
@@ -173,20 +173,20 @@ def _last_step(run):
 
 def _failure_message(run, message, t0, overflow):
     """The IntegrationError text for a solve_ivp failure: time, quantity, what to try."""
-    t, h, name = _time_reached(run, t0), _last_step(run), run.options.method_name
+    t, step, name = _time_reached(run, t0), _last_step(run), run.options.method_name
     if run.steps_exhausted:
         text = (f"{name} reached max_steps = {run.options.max_steps} at t = {t:.6g} s of "
-                f"t_end = {run.t_end:g} s (last step size h = {h:.3g} s, mean "
+                f"t_end = {run.t_end:g} s (last step size {step:.3g} s, mean "
                 f"{np.mean(run.step_sizes[-100:]):.3g} s over the last 100 steps): the problem is stiff "
                 "for this method, or the run too long")
         advice = run.advice() + ", or raise max_steps"
     elif message and "step size is less than spacing" in message:
         text = (f"{name} failed at t = {t:.6g} s: the step size underflowed (it must stay "
                 f"above 10 ulp(t) = {10 * np.spacing(abs(t)):.3g} s; the last accepted step was "
-                f"h = {h:.3g} s)")
+                f"{step:.3g} s)")
         advice = run.advice()
     else:
-        text = f"{name} failed at t = {t:.6g} s (last step h = {h:.3g} s): {message}"
+        text = f"{name} failed at t = {t:.6g} s (last step {step:.3g} s): {message}"
         advice = run.advice()
     if overflow:
         text += (f"; the right-hand side overflowed ({overflow[-1][1]}) at t = {overflow[-1][0]:.6g} s, "
