@@ -1,7 +1,9 @@
 """Golden master for refactorings: record what the engine computes, or compare with a record.
 
 Run as ``python benchmarks/golden_master.py record FILE`` before a change and
-``python benchmarks/golden_master.py compare FILE`` after it.  The record holds,
+``python benchmarks/golden_master.py compare FILE`` after it; and
+``python benchmarks/golden_master.py compare-study OLD.json NEW.json`` to compare two
+error-against-run-time studies (``closedloop benchmark --json``) row by row.  The record holds,
 for each of the paper's four cases and every formulation with each method it
 takes, the final state, nfev, the step count and the switch events of a 20 s
 run, and the outcome of every cell of a 100 x 100 basin map.  ``compare``
@@ -88,7 +90,28 @@ def compare(old, new):
     return worst_state <= 1e-12 and not changed and not cells.any()
 
 
+def compare_study(old, new):
+    """nfev and error_t10 of every row present in both studies (same case, formulation, method, rtol)."""
+    def key(row):
+        return row["case"], row["formulation"], row["method"], row["rtol"]
+
+    rows = {key(r): r for r in new["rows"]}
+    both = [(r, rows[key(r)]) for r in old["rows"] if key(r) in rows]
+    nfev = [(key(a), a["nfev"], b["nfev"]) for a, b in both if a.get("nfev") != b.get("nfev")]
+    errors = [abs(a["error_t10"] - b["error_t10"]) / max(abs(a["error_t10"]), 1e-300)
+              for a, b in both if a.get("error_t10") is not None and b.get("error_t10") is not None]
+    print(f"rows: {len(old['rows'])} before, {len(new['rows'])} after, {len(both)} in both")
+    print(f"rows whose nfev changed: {len(nfev)}")
+    for line in nfev[:20]:
+        print("  nfev changed:", line)
+    print(f"largest relative change of error_t10: {max(errors, default=0.0):.3g}")
+    return not nfev and max(errors, default=0.0) <= 1e-9
+
+
 def main(argv):
+    if len(argv) == 4 and argv[1] == "compare-study":
+        with open(argv[2]) as a, open(argv[3]) as b:
+            return 0 if compare_study(json.load(a), json.load(b)) else 1
     if len(argv) != 3 or argv[1] not in ("record", "compare"):
         print(__doc__.splitlines()[2])
         return 2
