@@ -86,3 +86,29 @@ def test_switching_and_the_evaluation_cap_are_validated(slider_crank):
         simulate(slider_crank, state, 1.0, max_nfev=0)
     with pytest.raises(IntegrationError, match=r"used up max_nfev = 50 right-hand-side evaluations at t = "):
         simulate(slider_crank, state, 1.0, max_nfev=50)
+
+
+def test_the_forcing_period_is_read_off_the_model(slider_crank, conservative_slider_crank, four_bar):
+    """The drive's ripple 0.01 sin(Omega t), Omega = 2 pi rad/s, has period 1 s; no drive, no time at all."""
+    from closedloop.simulation.switching import forcing_period
+
+    names = [str(p) for p in slider_crank.model.parameters]
+    omega = slider_crank.parameter_values[names.index("omega")]
+    assert omega == pytest.approx(2 * math.pi)
+    assert forcing_period(slider_crank) == pytest.approx(2 * math.pi / omega, rel=1e-12)
+    assert forcing_period(conservative_slider_crank) == 0.0
+    assert forcing_period(four_bar) == 0.0
+
+
+@pytest.mark.parametrize("t_end", [1e3, 1e6, 1e9])
+def test_a_stuck_slider_is_held_to_any_t_end_in_constant_work(slider_crank, t_end):
+    """Case 1 sticks at 37.83 s; past one period of the drive it is never released, so the run ends
+    there whatever t_end is: the same output points, the same evaluations, one held interval."""
+    case = CASES[1]
+    state = initial_state(slider_crank, case.phi0, case.dphi0)
+    short = simulate(slider_crank, state, 100.0, formulation=Minimal(), method="DOP853")
+    long = simulate(slider_crank, state, t_end, formulation=Minimal(), method="DOP853")
+    assert long.sticking_intervals[-1][0] == pytest.approx(37.834, abs=1e-3)
+    assert long.sticking_intervals[-1][1] == t_end and long.t[-1] == t_end
+    assert long.t.size == short.t.size and long.nfev == short.nfev
+    assert np.all(long.sd[:, -1] == 0.0) and np.array_equal(long.s[:, -1], short.s[:, -1])

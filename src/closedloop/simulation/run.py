@@ -19,7 +19,10 @@ from . import switching as rule
 from .options import IMPLICIT_METHODS
 from .result import Outputs, SwitchEvent
 
-__all__ = ["Run", "SegmentEnd"]
+__all__ = ["Run", "SegmentEnd", "MAX_RELEASE_SAMPLES"]
+
+#: Most checks of the holding force while one state is stuck (see Run._find_release).
+MAX_RELEASE_SAMPLES = 10_000_000
 
 
 class SegmentEnd(NamedTuple):
@@ -241,11 +244,24 @@ class Run:
         The margin is sampled every ``sticking_resolution`` seconds; the first
         sample where it is <= 0 brackets the release, which
         :func:`~closedloop.simulation.switching.locate_release` then locates.
+        Sampling ends after one period of the system's forcing
+        (:func:`~closedloop.simulation.switching.forcing_period`): the margin at
+        rest repeats itself after that, so a state held that long is held to t_end.
         """
         resolution = self.options.sticking_resolution
+        period = rule.forcing_period(self.system)
+        horizon = self.t_end if period is None else min(self.t_end, t0 + period + resolution)
+        samples = math.ceil((horizon - t0) / resolution)
+        if samples > MAX_RELEASE_SAMPLES:
+            raise IntegrationError(
+                f"the state sticks on a switch at t = {t0:.6g} s, and its release would need {samples:.3g} checks "
+                f"of the holding force up to t_end = {self.t_end:g} s (more than {MAX_RELEASE_SAMPLES:g}): the "
+                "system's forcing is not periodic, so no check can be skipped; give a larger sticking_resolution "
+                "or a shorter t_end"
+            )
         previous, previous_margin = t0, margin(t0)
-        grid = np.arange(t0 + resolution, self.t_end + resolution, resolution)
-        for t in np.minimum(grid, self.t_end):
+        for k in range(1, samples + 1):
+            t = min(t0 + k * resolution, self.t_end)
             value = margin(t)
             if value <= 0:
                 located = rule.locate_release(lambda times, _: np.array([margin(float(times[0]))]),

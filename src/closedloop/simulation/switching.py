@@ -20,6 +20,9 @@ with s fixed and s' = 0 while the force needed to hold it lies between the two b
 while the **release margin** ``min(off, -on)`` of the rates at rest stays > 0.  Release is at the
 first zero of the margin (:func:`locate_release`), onto the side that the "off" rate then points
 to.  A stuck state costs no right-hand-side evaluations, so no integration chatters there.
+At rest, the margin depends on time only through the system's explicit forcing (the drive
+torque's ripple): where that forcing is periodic with period P (:func:`forcing_period`), a
+state not released within one period is never released, so a long run costs no more than P.
 
 Stalls
 ------
@@ -30,13 +33,17 @@ the run stops with an :class:`~closedloop.errors.IntegrationError`.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
+import sympy as sp
+from sympy.calculus.util import periodicity
 
 from ..errors import IntegrationError
 
 __all__ = ["RATE_STEP", "SURFACE", "MIN_PROGRESS", "MAX_STALLS", "RELEASE_XTOL", "switching_rate", "decide",
            "on_surface", "release_margin", "side_after_release", "locate_release", "no_progress",
-           "refuse_sliding", "chattering_error"]
+           "refuse_sliding", "chattering_error", "forcing_period"]
 
 #: Forward-difference step of the rates dh/dt along the motion [s].
 RATE_STEP = 1e-7
@@ -161,3 +168,41 @@ def chattering_error(t, name, advice):
         f"the state chatters on switch {name!r} at t = {float(np.min(t)):.6g} s: {MAX_STALLS} stops without "
         f"progress; {advice}"
     )
+
+
+def forcing_period(system):
+    """The period of the system's explicit dependence on time, for the sticking rule.
+
+    Looks at the model's generalised forces and the switched force's expressions
+    on every branch, with the parameter values in.  Returns 0.0 when none depends
+    on time (an autonomous system), the period P > 0 when all are periodic in t
+    with a common period, and None when that is not known (a force without a
+    sympy form, or a forcing that is not periodic).  Computed once per system.
+    """
+    if "forcing_period" not in system.generated:
+        system.generated["forcing_period"] = _forcing_period(system)
+    return system.generated["forcing_period"]
+
+
+def _forcing_period(system):
+    model = system.model
+    time = model.time
+    values = dict(zip(model.parameters, system.parameter_values.tolist()))
+    expressions = list(model.generalized_forces)
+    force = system.force
+    if force is not None and force.switch_names:
+        for mode in itertools.product((False, True), repeat=len(force.switch_names)):
+            branch = force.expressions(mode, time, list(model.coordinates), list(model.velocities))
+            if branch is None:
+                return None
+            expressions += list(branch)
+    timed = [e for e in (sp.sympify(e).xreplace(values) for e in expressions) if e.has(time)]
+    if not timed:
+        return 0.0
+    periods = [periodicity(e, time) for e in timed]
+    if any(p is None for p in periods):
+        return None
+    period = float(periods[0])
+    if any(abs(float(p) - period) > 1e-12 * period for p in periods[1:]):
+        return None                      # different periods: not worth a common multiple here
+    return period
