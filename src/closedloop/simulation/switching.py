@@ -188,9 +188,9 @@ def _forcing_period(system):
     model = system.model
     time = model.time
     values = dict(zip(model.parameters, system.parameter_values.tolist()))
-    expressions = list(model.generalized_forces)
+    expressions = list(model.generalized_forces or ())
     force = system.force
-    if force is not None and force.switch_names:
+    if force is not None:                  # a force without a sympy form gives None: its time is unknown
         for mode in itertools.product((False, True), repeat=len(force.switch_names)):
             branch = force.expressions(mode, time, list(model.coordinates), list(model.velocities))
             if branch is None:
