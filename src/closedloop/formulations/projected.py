@@ -43,14 +43,16 @@ __all__ = ["Projected", "project_state", "PROJECTABLE_METHODS"]
 PROJECTABLE_METHODS = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853}
 
 
-def _minimum_norm(Phi, residual, t):
+def _minimum_norm(Phi, residual, t, s):
     """``Phi^T (Phi Phi^T)^{-1} residual``: the shortest ``d`` with ``Phi d = residual``."""
     try:
         return Phi.T @ solve_small(Phi @ Phi.T, residual)
     except np.linalg.LinAlgError:
+        where = ", ".join(f"{value:.6g}" for value in s)
         raise SingularConfigurationError(
-            f"Phi_s Phi_s^T is singular{at_time(t)}: the constraints are dependent (a kinematic "
-            "singularity), so the projection onto f = 0 is not defined there"
+            f"Phi_s Phi_s^T is singular{at_time(t)} (s = ({where})): the constraints are dependent, Phi_s "
+            "has lost rank (a change point, where assembly branches meet), so the projection onto f = 0 is "
+            "not defined there; no formulation of this library passes a change point"
         ) from None
 
 
@@ -93,8 +95,8 @@ def project_state(system, s, sd, t=None, tolerance=NEWTON_TOLERANCE, max_iterati
         f, Phi = system.constraints_and_jacobian(s)
         if np.abs(f).max() <= f_tolerance:
             sd = np.asarray(sd, dtype=float)
-            return s, sd - _minimum_norm(Phi, Phi @ sd, t)
-        s -= _minimum_norm(Phi, f, t)
+            return s, sd - _minimum_norm(Phi, Phi @ sd, t, s)
+        s -= _minimum_norm(Phi, f, t, s)
         if not np.all(np.isfinite(s)):
             break
     residual = np.linalg.norm(system.constraints(s)) if np.all(np.isfinite(s)) else np.inf

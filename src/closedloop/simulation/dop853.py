@@ -68,9 +68,12 @@ class Segment:
     steps : list of float
         Every accepted step size, in order (not counting the steps redone to
         locate the switch).
-    step_ends : ndarray, shape (m, len(steps) + 1)
-        The state at the start and at every accepted step end, for checks
-        along the path that output times alone would miss.
+    step_ends : ndarray, shape (m, K)
+        The state at the start, at every accepted step end, and at the switch
+        where the segment stopped, for checks along the path that output
+        times alone would miss.
+    step_times : ndarray, shape (K,)
+        The times of ``step_ends``.
     """
 
     t: np.ndarray
@@ -82,6 +85,7 @@ class Segment:
     last_step: float
     steps: list
     step_ends: np.ndarray
+    step_times: np.ndarray
 
 
 class BudgetExceeded(Exception):
@@ -150,22 +154,31 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
             solver.set_initial_value(watch.last_y, watch.last_t)
             solver.integrate(target)
             if failure:
-                raise failure[0]
+                raise _with_path(failure[0], watch, getattr(failure[0], "t", None))
             if watch.hit is not None:
                 return _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failure, evaluations,
                                           outputs is None, y0.size)
             code = solver.get_return_code()
             if code < 0:
-                raise IntegrationError(
+                raise _with_path(IntegrationError(
                     f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
                     "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains"
-                )
+                ), watch)
             watch.last_t, watch.last_y = target, np.array(solver.y, dtype=float)
             if target in wanted:
                 watch.times.append(target)
                 watch.states.append(watch.last_y.copy())
     return Segment(np.array(watch.times), np.array(watch.states).reshape(len(watch.times), y0.size).T, t_end,
-                   watch.last_y.copy(), None, evaluations(), watch.last_step, watch.steps, np.array(watch.ends).T)
+                   watch.last_y.copy(), None, evaluations(), watch.last_step, watch.steps, np.array(watch.ends).T,
+                   np.array(watch.end_times))
+
+
+def _with_path(error, watch, failed_at=None):
+    """``error`` carrying the step ends reached so far (``path_times``, ``path_states``) and the time of
+    the call that failed (``failed_at``), for the caller's checks."""
+    error.path_times, error.path_states = np.array(watch.end_times), np.array(watch.ends).T
+    error.failed_at = failed_at
+    return error
 
 
 def _counting(rhs, max_nfev, failure):
@@ -183,6 +196,7 @@ def _counting(rhs, max_nfev, failure):
             try:
                 return rhs(t, y)
             except Exception as error:
+                error.t = t                 # where it failed, for the caller's checks
                 failure.append(error)
                 return [math.nan] * y.size
     else:
@@ -194,6 +208,7 @@ def _counting(rhs, max_nfev, failure):
                     raise BudgetExceeded(t)
                 return rhs(t, y)
             except Exception as error:
+                error.t = t
                 failure.append(error)
                 return [math.nan] * y.size
 
@@ -213,7 +228,7 @@ class _StepWatch:
         self.last_t, self.last_y, self.last_g = t0, y0.copy(), list(switching(t0, y0))
         self.last_step, self.hit = first_step, None
         self.times, self.states = [t0], [y0.copy()]
-        self.steps, self.ends = [], [y0.copy()]
+        self.steps, self.ends, self.end_times = [], [y0.copy()], [t0]
 
     def solout(self, t, y):
         if self.failure:
@@ -229,6 +244,7 @@ class _StepWatch:
         self.steps.append(self.last_step)
         y = y.copy()                         # one copy serves all three lists: none is changed in place
         self.ends.append(y)
+        self.end_times.append(t)
         self.last_t, self.last_y, self.last_g = t, y, g
         if self.keep_steps:
             self.times.append(t)
@@ -246,8 +262,10 @@ def _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failur
         watch.times.append(t_event)
         watch.states.append(y_event)
     watch.ends.append(y_event)
+    watch.end_times.append(t_event)
     return Segment(np.array(watch.times), np.array(watch.states).reshape(len(watch.times), size).T, t_event,
-                   y_event, event, evaluations(), watch.last_step, watch.steps, np.array(watch.ends).T)
+                   y_event, event, evaluations(), watch.last_step, watch.steps, np.array(watch.ends).T,
+                   np.array(watch.end_times))
 
 
 def _hermite_root(g0, g1, d0, d1):

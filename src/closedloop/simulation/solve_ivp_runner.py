@@ -22,7 +22,7 @@ import math
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau, solve_ivp
 
-from ..errors import IntegrationError, SingularConfigurationError
+from ..errors import ClosedLoopError, IntegrationError, SingularConfigurationError
 
 __all__ = ["segment", "counting_solver", "SOLVER_CLASSES"]
 
@@ -41,6 +41,7 @@ def counting_solver(run, method):
     """
     base = SOLVER_CLASSES[method] if isinstance(method, str) else method
     max_steps = run.options.max_steps
+    watch = run.watch_path
 
     class Counted(base):
         def _step_impl(self):
@@ -49,6 +50,9 @@ def counting_solver(run, method):
             if success and self.t != t_before:
                 run.step_sizes.append(abs(self.t - t_before))
                 run.t_reached = self.t
+                if watch:
+                    run.path_times.append(self.t)
+                    run.path_states.append(self.y.copy())
                 if len(run.step_sizes) >= max_steps and self.t != self.t_bound:
                     run.steps_exhausted = True
                     return False, f"max_steps = {max_steps} reached"
@@ -109,12 +113,39 @@ def _guarded(rhs, run, reached, overflow):
 
 def segment(run, t0, s0, sd0, mode):
     """Integrate on branch ``mode`` from ``t0`` until t_end or the next switch: a SegmentEnd."""
-    options, formulation = run.options, run.formulation
     y0, unpack, rhs = run.start_segment(s0, sd0, mode)
     events, terminal = _events(run, unpack, mode)
     reached, overflow = [t0], []                    # last time the rhs was evaluated; (t, message) of overflows
+    run.start_path(t0, y0, s0)
     try:
-        sol = solve_ivp(_guarded(rhs, run, reached, overflow), (t0, run.t_end), y0,
+        sol = _solve(run, rhs, t0, y0, events, reached, overflow)
+    except ClosedLoopError:
+        run.check_recorded_path(reached[0])         # a change point passed before is the real cause
+        raise
+    run.nfev += sol.nfev
+    event = t_stop = y_stop = None
+    if sol.status == 1:                             # stopped by a switch or stop_when: the first one
+        times = [te[0] if te.size else np.inf for te in sol.t_events[:terminal]]
+        event = int(np.argmin(times))
+        t_stop, y_stop = sol.t_events[event][0], sol.y_events[event][0]
+    if run.watch_path:
+        run.check_path(run.path_times, np.column_stack(run.path_states), t_stop, y_stop)
+    if terminal < len(events):
+        _check_crossings(run, sol.t_events[terminal], sol.y_events[terminal], unpack)
+    if sol.status == -1:
+        raise IntegrationError(_failure_message(run, sol.message, t0, overflow))
+    t_out = np.asarray(sol.t, dtype=float)          # solve_ivp gives lists when t_eval is empty
+    y_out = np.asarray(sol.y, dtype=float).reshape(y0.size, t_out.size)
+    run.check_finite(t_out, y_out)
+    run.store_segment(t_out, y_out, s0, mode, t0)
+    return run.end_of_segment(t_stop, y_stop, unpack, event)
+
+
+def _solve(run, rhs, t0, y0, events, reached, overflow):
+    """solve_ivp over one segment; the budget and "could not locate a switch" become IntegrationErrors."""
+    options, formulation = run.options, run.formulation
+    try:
+        return solve_ivp(_guarded(rhs, run, reached, overflow), (t0, run.t_end), y0,
                         method=counting_solver(run, formulation.integrator(run.system, options.method)),
                         rtol=options.rtol, atol=options.atol, t_eval=run.outputs.due(t0), events=events or None,
                         **options.solver_options)
@@ -129,20 +160,6 @@ def segment(run, t0, s0, sd0, mode):
             "sign between the ends of the step but not along its interpolant, so the step is too long for the "
             "motion; try tighter tolerances, a max_step, or another formulation"
         ) from None
-    run.nfev += sol.nfev
-    if terminal < len(events):
-        _check_crossings(run, sol.t_events[terminal], sol.y_events[terminal], unpack)
-    if sol.status == -1:
-        raise IntegrationError(_failure_message(run, sol.message, t0, overflow))
-    t_out = np.asarray(sol.t, dtype=float)          # solve_ivp gives lists when t_eval is empty
-    y_out = np.asarray(sol.y, dtype=float).reshape(y0.size, t_out.size)
-    run.check_finite(t_out, y_out)
-    run.store_segment(t_out, y_out, s0, mode, t0)
-    if sol.status == 0:                             # reached t_end: no end state is needed
-        return run.end_of_segment(run.t_end, None, unpack, None)
-    times = [te[0] if te.size else np.inf for te in sol.t_events[:terminal]]
-    event = int(np.argmin(times))
-    return run.end_of_segment(sol.t_events[event][0], sol.y_events[event][0], unpack, event)
 
 
 def _check_crossings(run, times, states, unpack):

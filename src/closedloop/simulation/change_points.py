@@ -1,0 +1,191 @@
+"""Change points: where the path meets a configuration at which Phi_s loses rank.
+
+At a change point (a bifurcation of the constraint manifold: a parallelogram four-bar with all its
+links in line, say) two assembly branches meet.  Phi_s of (9) loses rank there, so lambda of (12) is
+not determined, R of (20) and every null-space basis fail, and the motion past it is not decided by
+Lagrange's equations with multipliers.  An integrator that steps over it lands on either branch, or
+between them, and reports a smooth-looking motion with a small |f|: a silent wrong answer.
+
+The check runs on every runner (solve_ivp and the compiled DOP853) and every formulation,
+minimal coordinates included, over the accepted steps of each segment (and, when a formulation
+fails inside a step, over that step extrapolated to where it failed):
+
+1. ``sigma_min(Phi_s)`` at every step end (the eigenvalues of the small Gram matrix
+   ``Phi_s Phi_s^T``, for all step ends at once);
+2. at each local minimum along the path (or a step end of the path's ends that is lower than
+   its neighbour), the minimum is refined on the cubic Hermite interpolant of the positions
+   (the step ends' s and s') over the two steps around it, by bounded minimisation;
+3. where ``sigma_min < 0.1 sigma_max`` (:data:`REFINE_BELOW`) the Kantorovich number
+   ``h = sigma_max e / sigma_min^2`` of (10.b) is formed with ``e`` the larger of |f| at the step
+   end, |f| at the refined point of the interpolant (its own error) and ``eps (1 + |s|)``: the
+   distance of the path to the constraint manifold, never below rounding.  ``h`` is the ratio of the
+   distance to the nearest root of f = 0 to half the distance between the branches; above
+   :data:`CHANGE_POINT_LIMIT` the run can not tell the branches apart: it has reached a change
+   point, and stops with a :class:`~closedloop.errors.SingularConfigurationError` that names the
+   time and the configuration.  No formulation of this library continues through a change point.
+
+``simulate(..., branch_limit=math.inf)`` turns this check off together with the branch guard.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+from scipy.optimize import brentq, minimize_scalar
+
+from ..errors import SingularConfigurationError
+
+
+__all__ = ["singular_values", "find_change_point", "change_point_error", "CHANGE_POINT_LIMIT", "REFINE_BELOW"]
+
+#: Unit roundoff of float64: the smallest distance to the manifold a run can claim.
+EPSILON = float(np.finfo(float).eps)
+
+#: Kantorovich's own bound: above h = 1/2 Newton's iteration from the run's state is no longer
+#: sure to reach one root, the distance to the manifold is as large as half the distance between
+#: the branches, and the run can not tell which branch it is on.  (The guard at sign changes of
+#: det Phi_z keeps the stricter BRANCH_LIMIT = 0.01; along the whole path 1/2 keeps runs that
+#: resolve two near branches, such as Baumgarte at rtol 1e-9 with l2/l1 = 1 + 1e-8, and stops
+#: every run through a change point, where h is 1e6 or more.)
+CHANGE_POINT_LIMIT = 0.5
+
+#: Local minima of sigma_min / sigma_max below this are refined on the interpolant; above it the
+#: constraints are far from dependent and the step ends suffice.
+REFINE_BELOW = 0.1
+
+
+def singular_values(jacobians):
+    """``(sigma_min, sigma_max)`` of K matrices Phi_s of shape (r, n, K), from the eigenvalues of Phi Phi^T."""
+    r = jacobians.shape[0]
+    gram = np.einsum("ink,jnk->kij", jacobians, jacobians)
+    if r == 1:
+        largest = smallest = gram[:, 0, 0]
+    elif r == 2:
+        trace = gram[:, 0, 0] + gram[:, 1, 1]
+        det = gram[:, 0, 0] * gram[:, 1, 1] - gram[:, 0, 1] * gram[:, 1, 0]
+        largest = 0.5 * (trace + np.sqrt(np.maximum(trace * trace - 4.0 * det, 0.0)))
+        # the small eigenvalue as det / largest keeps its relative accuracy where it is tiny
+        smallest = np.where(largest > 0, np.maximum(det, 0.0) / np.where(largest > 0, largest, 1.0), 0.0)
+    else:
+        eigenvalues = np.linalg.eigvalsh(gram)
+        largest, smallest = eigenvalues[:, -1], np.maximum(eigenvalues[:, 0], 0.0)
+    return np.sqrt(smallest), np.sqrt(largest)
+
+
+def _hermite(t, t0, t1, s0, s1, v0, v1):
+    """Positions on the cubic Hermite interpolant over [t0, t1] at time t."""
+    step = t1 - t0
+    x = (t - t0) / step
+    x2, x3 = x * x, x * x * x
+    return ((2 * x3 - 3 * x2 + 1) * s0 + (x3 - 2 * x2 + x) * step * v0 + (-2 * x3 + 3 * x2) * s1
+            + (x3 - x2) * step * v1)
+
+
+def maximal_minors(jacobian):
+    """The r x r minors of one Phi_s (r x n), in a fixed order of the column sets.
+
+    They are the Pluecker coordinates of its row space: all vanish exactly where Phi_s
+    loses rank, and along a path that crosses such a point the vector of them passes
+    through zero and comes out reversed (det Phi_z, the one the branch guard watches,
+    is one of them, and can touch zero without changing sign while the others do).
+    """
+    r, n = jacobian.shape
+    return np.array([np.linalg.det(jacobian[:, list(columns)]) for columns in itertools.combinations(range(n), r)])
+
+
+def _refine(system, times, s, sd, k, beyond=None):
+    """The smallest sigma_min(Phi_s) on the steps next to step end k: ``(t, sigma_min, sigma_max, s)``.
+
+    On each step the minimum is sought twice: where the minors of Phi_s reverse (a root of
+    their projection on the minors at the step's start, found by brentq to rounding, which
+    is where a path through a change point meets it), and by bounded minimisation of
+    sigma_min (a path that passes near one).  With ``beyond`` (a time past the last step
+    end, where the run failed) the last step's interpolant is also followed, extrapolated,
+    up to that time.
+    """
+    last = times.size - 1
+    pieces = [(a, times[a], times[a + 1]) for a in (k - 1, k) if 0 <= a < last and times[a + 1] > times[a]]
+    if beyond is not None and k == last and last >= 1 and beyond > times[last]:
+        pieces.append((last - 1, times[last], beyond))
+    best = None
+    for a, start, end in pieces:
+        def position(t, a=a):
+            return _hermite(t, times[a], times[a + 1], s[:, a], s[:, a + 1], sd[:, a], sd[:, a + 1])
+
+        def sigma_min(t):
+            return singular_values(system.jacobian(position(t))[:, :, None])[0][0]
+
+        candidates = [minimize_scalar(sigma_min, bounds=(start, end), method="bounded",
+                                      options={"xatol": 1e-12 * max(1.0, abs(end))}).x]
+        first = maximal_minors(system.jacobian(position(start)))
+
+        def reversal(t):
+            return float(first @ maximal_minors(system.jacobian(position(t))))
+
+        if reversal(start) > 0 > reversal(end):
+            candidates.append(brentq(reversal, start, end, xtol=1e-15, rtol=4 * EPSILON))
+        for t in candidates:
+            low, high = (float(v[0]) for v in singular_values(system.jacobian(position(t))[:, :, None]))
+            if best is None or low < best[1]:
+                best = (float(t), low, high, position(t))
+    return best
+
+
+def find_change_point(system, times, s, sd, failed_at=None, limit=None):
+    """The first change point along a path given at its step ends, or None.
+
+    Parameters
+    ----------
+    system : System
+    times : ndarray, shape (K,)
+        Step ends (increasing), the segment's start first.
+    s, sd : ndarray, shape (n, K)
+        Positions and velocities there.
+    limit : float, optional
+        The bound on the Kantorovich number (default :data:`CHANGE_POINT_LIMIT`).
+    failed_at : float, optional
+        Where the run failed after its last step end (the formulation could not
+        go on): the path is then also followed, extrapolated, up to that time.
+
+    Returns
+    -------
+    None, or ``(t, s, sigma_min, sigma_max, kantorovich)`` at the change point.
+    """
+    limit = CHANGE_POINT_LIMIT if limit is None else limit
+    if times.size < 2:
+        return None
+    residuals, jacobians = system.constraints_and_jacobian_many(s)
+    smallest, largest = singular_values(jacobians)
+    error = np.maximum(np.sqrt(np.sum(residuals * residuals, axis=0)),
+                       EPSILON * (1.0 + np.max(np.abs(s), axis=0)))
+    lower_left = np.concatenate(([True], smallest[1:] <= smallest[:-1]))
+    lower_right = np.concatenate((smallest[:-1] <= smallest[1:], [True]))
+    minima = np.flatnonzero(lower_left & lower_right)
+    for k in minima:
+        t, low, high, position = float(times[k]), float(smallest[k]), float(largest[k]), s[:, k]
+        if low < REFINE_BELOW * high or (failed_at is not None and k == times.size - 1):
+            t, low, high, position = _refine(system, times, s, sd, k, failed_at)
+        if low >= REFINE_BELOW * high:
+            continue     # Phi_s well conditioned: a large |f| here is drift, not a change point
+        # |f| on the interpolant measures how far the interpolated path is from the manifold, so
+        # a refined minimum that only reflects the interpolation's own error is not trusted
+        distance = max(float(error[k]), float(np.linalg.norm(system.constraints(position))))
+        kantorovich = math.inf if low == 0.0 else high * distance / (low * low)
+        if kantorovich > limit:
+            return t, position, low, high, kantorovich
+    return None
+
+
+def change_point_error(found, names, method_name):
+    """The SingularConfigurationError for a change point found by :func:`find_change_point`."""
+    t, position, low, high, kantorovich = found
+    where = ", ".join(f"{name} = {value:.6g}" for name, value in zip(names, position))
+    condition = math.inf if low == 0.0 else high / low
+    return SingularConfigurationError(
+        f"the path reaches a change point at t = {t:.6g} s ({where}) with {method_name}: Phi_s loses rank "
+        f"there (cond(Phi_s) = {condition:.3g}, Kantorovich number {kantorovich:.3g}), two assembly branches "
+        "meet, and the motion past it is not determined by these equations; no formulation of this library "
+        "passes a change point: end the run before it, or change the geometry"
+    )
