@@ -5,8 +5,11 @@ matplotlib is imported here only, so simulating never pulls it in.
 
 from __future__ import annotations
 
+from .benchmark import pareto_figure, residual_figure, work_precision_figure
+
 __all__ = ["plot_slider_crank", "slider_crank_points", "draw_slider_crank", "animate_slider_crank",
-           "four_bar_points", "draw_four_bar", "animate_four_bar", "plot_basin_map"]
+           "four_bar_points", "draw_four_bar", "animate_four_bar", "plot_basin_map",
+           "work_precision_figure", "pareto_figure", "residual_figure"]
 
 
 def plot_slider_crank(result, title=None):
