@@ -7,8 +7,8 @@ import pytest
 from scipy.integrate import quad
 
 from closedloop import Minimal, simulate
-from closedloop.slider_crank import (CASES, classify_motion, drive_torque, gas_force, initial_state,
-                                     reading_outcomes)
+from closedloop.slider_crank import CASES, classify_motion, drive_torque, gas_force, initial_state
+from closedloop.studies.readings import reading_outcomes
 
 
 @pytest.mark.parametrize("number", sorted(CASES))
@@ -131,3 +131,15 @@ def test_output_times_may_end_before_t_end(slider_crank):
     full = simulate(slider_crank, initial_state(slider_crank, case.phi0, case.dphi0), 0.5, t_eval=[0.5])
     assert list(result.t) == [0.0, 0.5]
     assert np.allclose(result.s[:, 1], full.s[:, 0], atol=1e-7)
+
+
+def test_the_old_home_of_reading_outcomes_warns_and_gives_the_study():
+    """Readers' code of 0.1 imported the study from the mechanism; it still works, with a warning."""
+    import closedloop.slider_crank as slider_crank
+
+    with pytest.warns(DeprecationWarning, match=r"moved to closedloop\.studies\.readings"):
+        old = slider_crank.reading_outcomes
+    assert old is reading_outcomes
+    assert "reading_outcomes" not in slider_crank.__all__ and "ReadingOutcome" not in slider_crank.__all__
+    with pytest.raises(AttributeError, match="no_such_name"):
+        slider_crank.no_such_name

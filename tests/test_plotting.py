@@ -35,3 +35,41 @@ def test_paper_style_figure_has_its_five_panels(slider_crank):
     assert len(figure.axes) == 5
     assert figure.axes[-1].get_yscale() == "log"
     assert np.allclose(figure.axes[2].lines[0].get_ydata(), result.coordinate("x"))
+
+
+def test_simulating_never_imports_matplotlib_and_a_figure_does():
+    """Every plotting module imports matplotlib inside its functions only; a fresh interpreter shows it."""
+    import subprocess
+    import sys
+
+    script = (
+        "import sys\n"
+        "import closedloop.plotting, closedloop.plotting.basin, closedloop.plotting.benchmark\n"
+        "import closedloop.plotting.cases, closedloop.plotting.mechanism\n"
+        "from closedloop import simulate\n"
+        "from closedloop.slider_crank import initial_state, slider_crank_system\n"
+        "system = slider_crank_system()\n"
+        "result = simulate(system, initial_state(system, 1.0, 1.0), 0.5)\n"
+        "print('after simulate:', 'matplotlib' in sys.modules)\n"
+        "closedloop.plotting.plot_slider_crank(result)\n"
+        "print('after a figure:', 'matplotlib' in sys.modules)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split("\n")[:2] == ["after simulate: False", "after a figure: True"]
+
+
+def test_every_plotting_name_the_book_imports_is_exported():
+    """``from closedloop.plotting import X`` in the chapters and exercises: each X is in __all__."""
+    from pathlib import Path
+
+    import closedloop.plotting
+
+    root = Path(__file__).resolve().parents[1]
+    names = set()
+    for path in [*root.glob("chapters/*.md"), *root.glob("exercises/*.md"), *root.glob("exercises/checking/*.py")]:
+        for match in re.finditer(r"from closedloop\.plotting import ([^\n(]+)", path.read_text(encoding="utf-8")):
+            names |= {name.strip() for name in match.group(1).split(",")}
+    assert {"plot_slider_crank", "draw_four_bar", "plot_basin_map", "pareto_figure"} <= names
+    assert names <= set(closedloop.plotting.__all__)
+    assert all(callable(getattr(closedloop.plotting, name)) for name in closedloop.plotting.__all__)

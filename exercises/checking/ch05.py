@@ -12,10 +12,10 @@ from closedloop.slider_crank import (
     READINGS,
     gas_force,
     initial_state,
-    reading_outcomes,
     slider_crank_model,
     slider_crank_system,
 )
+from closedloop.studies.readings import reading_outcomes
 
 from . import Check, choice, make_check, numeric, scaled, symbolic
 

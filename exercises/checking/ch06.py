@@ -5,8 +5,8 @@ import math
 import numpy as np
 
 from closedloop import Baumgarte, Minimal, simulate
-from closedloop.slider_crank import (CASES, READINGS, classify_motion, initial_state, reading_outcomes,
-                                     slider_crank_system)
+from closedloop.slider_crank import CASES, READINGS, classify_motion, initial_state, slider_crank_system
+from closedloop.studies.readings import reading_outcomes
 
 from . import Check, another_letter, choice, make_check, numeric, scaled
 

@@ -335,8 +335,7 @@ def run_benchmark(args):
     """Carry out ``closedloop benchmark``; returns the text to print."""
     from pathlib import Path
 
-    from .studies.benchmark import (DEFAULT_SETTINGS, QUICK_SETTINGS, format_table, pareto_figure, residual_figure,
-                            residual_traces, run_study, work_precision_figure)
+    from .studies.benchmark import DEFAULT_SETTINGS, QUICK_SETTINGS, format_table, residual_traces, run_study
 
     if args.json is not None and not Path(args.json).resolve().parent.is_dir():
         raise InputError(f"json: the folder of {args.json!r} does not exist")
@@ -352,6 +351,8 @@ def run_benchmark(args):
             stream.write("\n")
         lines.append(f"rows and settings written to {args.json}")
     if figures is not None:
+        from .plotting.benchmark import pareto_figure, residual_figure, work_precision_figure
+
         figures.mkdir(parents=True, exist_ok=True)
         written = {f"work_precision_case{case}.png": work_precision_figure(data["rows"], case)
                    for case in data["settings"]["cases"]}

@@ -45,8 +45,6 @@ __all__ = [
     "MOTIONS",
     "motion_codes",
     "COORDINATES",
-    "ReadingOutcome",
-    "reading_outcomes",
     "get_case",
     "get_reading",
 ]
@@ -421,53 +419,17 @@ def classify_motion(result, phi0=None) -> str:
     return MOTIONS[motion_codes(np.max(np.abs(phi - start)))]
 
 
-@dataclass(frozen=True)
-class ReadingOutcome:
-    """How one case moves under one reading of the data (the table in NOTES.md)."""
-
-    reading: str
-    case: int
-    motion: str
-    stuck_at: float | None        # first time the slider sticks, if it does
-    runaway_at: float | None      # time the crank speed passed the run-away limit, if it did
-    final_speed: float            # phi' at the end of the run [rad/s]
-    nfev: int
+#: Names that moved to a study; the old import path still works, with a DeprecationWarning.
+_MOVED_TO_STUDIES = {"ReadingOutcome": "readings", "reading_outcomes": "readings"}
 
 
-def reading_outcomes(t_end=20.0, formulation=None, method="LSODA", rtol=1e-8, atol=1e-8,
-                     runaway_speed=100.0, readings=None, cases=None):
-    """Simulate every case under every reading of the data.
+def __getattr__(name):
+    """``closedloop.slider_crank.reading_outcomes`` of 0.1: found in :mod:`closedloop.studies.readings`."""
+    if name not in _MOVED_TO_STUDIES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+    import warnings
 
-    A run stops early once ``|phi'|`` exceeds ``runaway_speed`` (a crank
-    spinning up without bound: 100 rad/s is about 5000 times the gravity
-    amplitude in kinetic energy), so the table stays quick to recompute.
-
-    Parameters
-    ----------
-    t_end : float
-    formulation, method, rtol, atol
-        As for :func:`closedloop.simulate`; default Baumgarte(10, 10) with LSODA.
-    runaway_speed : float
-    readings, cases : iterables, optional
-        Default: all of :data:`READINGS` and :data:`CASES`.
-
-    Returns
-    -------
-    list of ReadingOutcome
-    """
-    from .formulations import Baumgarte
-    from .simulation import simulate
-
-    formulation = Baumgarte(10.0, 10.0) if formulation is None else formulation
-    rows = []
-    for name in readings or READINGS:
-        system = slider_crank_system(reading=name)
-        for number in cases or CASES:
-            case = get_case(number)
-            result = simulate(system, initial_state(system, case.phi0, case.dphi0), t_end,
-                              formulation=formulation, method=method, rtol=rtol, atol=atol,
-                              stop_when=lambda t, s, sd: abs(sd[0]) - runaway_speed)
-            stuck = result.sticking_intervals[0][0] if result.sticking_intervals else None
-            rows.append(ReadingOutcome(name, number, classify_motion(result), stuck, result.stopped_at,
-                                       float(result.sd[0, -1]), result.nfev))
-    return rows
+    home = f"closedloop.studies.{_MOVED_TO_STUDIES[name]}"
+    warnings.warn(f"{__name__}.{name} moved to {home}; import it from there", DeprecationWarning, stacklevel=2)
+    return getattr(importlib.import_module(home), name)

@@ -33,8 +33,15 @@ does with solve_ivp:
   force leaves the range between the branches;
 - a cell is classified by :func:`closedloop.slider_crank.motion_codes`, the rule
   of :func:`~closedloop.slider_crank.classify_motion`, applied to the largest
-  ``|phi - phi0|`` seen at the step ends and switch points; a cell that has
-  turned 2 pi is finished and leaves the batch.
+  excursion ``|q - q0|`` of the independent coordinate (phi for the slider-crank)
+  seen at the step ends and switch points; a cell that has turned 2 pi is
+  finished and leaves the batch.
+
+:func:`integrate_outcomes` works for any one-degree-of-freedom
+:class:`~closedloop.model.System` (the four-bar of :mod:`closedloop.four_bar` too):
+the caller says how a start ``(q0, q0')`` is assembled, through ``initial_state``.
+:func:`basin_map` is its slider-crank wrapper, with the slider-crank's
+:func:`~closedloop.slider_crank.initial_state`.
 
 :func:`reference_outcomes` classifies cells one by one with :func:`closedloop.simulate`
 (Minimal, DOP853, rtol = 1e-10) for the agreement check.
@@ -53,7 +60,8 @@ from ..errors import ConvergenceError, InputError, IntegrationError, SingularCon
 from ..kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE
 from ..linalg import solve_many
 from ..simulation import switching as rule
-from ..slider_crank import MOTIONS, initial_state, motion_codes, slider_crank_system
+from ..slider_crank import MOTIONS, SliderCrankSystem, motion_codes, slider_crank_system
+from ..slider_crank import initial_state as slider_crank_initial_state
 
 __all__ = ["BasinMap", "basin_map", "integrate_outcomes", "reference_outcomes", "boundary_cells",
            "compare_outcomes", "Agreement", "DEFAULT_STEP", "grid_values"]
@@ -204,16 +212,19 @@ class BatchOutcome:
     step: float
 
 
-def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progress=None, finish_early=True):
+def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progress=None, finish_early=True, *,
+                       initial_state=None):
     """Integrate K initial conditions at once and classify each (the batch integrator).
 
     Parameters
     ----------
     system : System
-        A one-degree-of-freedom system, e.g. :func:`~closedloop.slider_crank.slider_crank_system`;
-        its switched force must provide ``switching_functions_many`` and ``many``.
+        A one-degree-of-freedom system, e.g. :func:`~closedloop.slider_crank.slider_crank_system`
+        or a :class:`~closedloop.model.System` of :func:`closedloop.four_bar.four_bar_model`;
+        its switched force, if it has one, must provide ``switching_functions_many`` and ``many``.
     phi0, dphi0 : ndarray, shape (K,)
-        Initial crank angles [rad] and speeds [rad/s].
+        Initial values of the independent coordinate q [rad] and of its rate [rad/s]
+        (for the slider-crank, the crank angle phi and speed phi').
     t_end : float
         Final time [s], > 0.
     step : float
@@ -224,10 +235,19 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
     finish_early : bool, optional
         Stop integrating a cell once it has turned 2 pi (its outcome is then
         settled); False integrates every cell to ``t_end``.
+    initial_state : callable, optional, keyword only
+        ``initial_state(system, q0, qd0)`` returns the consistent
+        :class:`~closedloop.kinematics.InitialState` of one cell (it chooses the
+        assembly branch, the dependent coordinates z of f(q, z) = 0 (6)); its
+        independent coordinate and rate must be q0 and qd0.  Default: for a
+        :class:`~closedloop.slider_crank.SliderCrankSystem`,
+        :func:`closedloop.slider_crank.initial_state`; any other system must pass one.
 
     Returns
     -------
     BatchOutcome
+        Each cell classified by the largest excursion ``|q - q0|`` of its
+        independent coordinate (``codes``, ``excursion``).
     """
     phi0 = np.asarray(phi0, dtype=float).ravel()
     dphi0 = np.asarray(dphi0, dtype=float).ravel()
@@ -237,7 +257,8 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
         raise InputError("phi0, dphi0: must be finite numbers")
     _check_time(t_end, step)
     model = _Model(system)
-    cells = _initial_cells(system, model, phi0, dphi0)
+    initial_state = _start_rule(system, initial_state)
+    cells = _initial_cells(system, model, phi0, dphi0, initial_state)
     cells.finish_early = finish_early
     count = max(1, int(math.ceil(t_end / step - 1e-9)))
     h = t_end / count
@@ -275,12 +296,34 @@ def _check_time(t_end, step):
         raise InputError(f"step: must be <= t_end = {t_end:g} s, got {step:g} s")
 
 
-def _initial_cells(system, model, phi0, dphi0):
-    """Consistent initial states, the initial branch of each switch, and sticking at t = 0."""
+def _start_rule(system, initial_state):
+    """The function that assembles a cell's start: the caller's, or the slider-crank's by default."""
+    if initial_state is None:
+        if not isinstance(system, SliderCrankSystem):
+            raise InputError("initial_state: needed for a system other than the slider-crank: a function "
+                             "initial_state(system, q0, qd0) that returns a consistent InitialState")
+        return slider_crank_initial_state
+    if not callable(initial_state):
+        raise InputError(f"initial_state: must be a function (system, q0, qd0) -> InitialState, "
+                         f"got {initial_state!r}")
+    return initial_state
+
+
+def _initial_cells(system, model, phi0, dphi0, initial_state):
+    """Consistent initial states, the initial branch of each switch, and sticking at t = 0.
+
+    ``initial_state(system, q0, qd0)`` chooses each cell's assembly branch (its z); the
+    independent coordinate and rate it returns must be the cell's own.
+    """
     size = phi0.size
     z = np.empty((system.r, size))
-    for j in range(size):                      # the library's branch choice, cell by cell (cheap)
-        z[:, j] = initial_state(system, float(phi0[j]), float(dphi0[j])).s[system.z_index]
+    for j in range(size):                      # the caller's branch choice, cell by cell (cheap)
+        start = initial_state(system, float(phi0[j]), float(dphi0[j]))
+        q, qd = float(start.s[model.q]), float(start.sd[model.q])
+        if abs(q - phi0[j]) > 1e-12 * (1.0 + abs(phi0[j])) or abs(qd - dphi0[j]) > 1e-12 * (1.0 + abs(dphi0[j])):
+            raise InputError(f"initial_state: returned q = {q!r}, q' = {qd!r} for the cell started at "
+                             f"q0 = {float(phi0[j])!r}, q0' = {float(dphi0[j])!r}; it must keep them")
+        z[:, j] = start.s[system.z_index]
     k = model.switches
     cells = _Cells(t=np.zeros(size), q=phi0.copy(), qd=dphi0.copy(), z=z, mode=np.zeros((k, size), bool),
                    q0=phi0.copy(), excursion=np.zeros(size), stuck=np.full(size, -1),
@@ -634,7 +677,8 @@ def _chunk(args):
     """One worker's share of the grid (top level, so that multiprocessing can pickle it)."""
     reading, phi0, dphi0, t_end, step = args
     start = time.process_time()
-    result = integrate_outcomes(slider_crank_system(reading=reading), phi0, dphi0, t_end, step)
+    result = integrate_outcomes(slider_crank_system(reading=reading), phi0, dphi0, t_end, step,
+                                initial_state=slider_crank_initial_state)
     return result, time.process_time() - start
 
 
@@ -677,7 +721,7 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
     wall, cpu = time.perf_counter(), time.process_time()
     if workers == 1:
         results = [(integrate_outcomes(slider_crank_system(reading=reading), phi_flat, dphi_flat, t_end, step,
-                                       progress=progress), 0.0)]
+                                       progress=progress, initial_state=slider_crank_initial_state), 0.0)]
         order = [np.arange(phi_flat.size)]
     else:
         import multiprocessing
@@ -716,20 +760,38 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
 REFERENCE = {"method": "DOP853", "rtol": 1e-10, "atol": 1e-10}
 
 
-def reference_outcome(system, phi0, dphi0, t_end=20.0):
+def reference_outcome(system, phi0, dphi0, t_end=20.0, *, initial_state=None):
     """One cell classified by :func:`closedloop.simulate` (Minimal, DOP853, rtol = atol = 1e-10).
 
-    The run stops once ``|phi - phi0|`` passes 2 pi + 0.5 rad (the outcome is
-    then settled); :func:`~closedloop.slider_crank.classify_motion` decides.
+    The run stops once the excursion ``|q - q0|`` of the independent coordinate
+    (phi for the slider-crank) passes 2 pi + 0.5 rad (the outcome is then
+    settled); :func:`~closedloop.slider_crank.motion_codes`, the rule of
+    :func:`~closedloop.slider_crank.classify_motion`, decides on it.
+
+    Parameters
+    ----------
+    system : System
+        A one-degree-of-freedom system.
+    phi0, dphi0 : float
+        The cell's start: the independent coordinate [rad] and its rate [rad/s].
+    t_end : float
+    initial_state : callable, optional, keyword only
+        As for :func:`integrate_outcomes`.
+
+    Returns
+    -------
+    int
+        The outcome code, an index of :data:`~closedloop.slider_crank.MOTIONS`.
     """
     from ..formulations import Minimal
     from ..simulation import simulate
-    from ..slider_crank import classify_motion
 
+    initial_state = _start_rule(system, initial_state)
+    q = int(system.q_index[0])
     limit = 2.0 * math.pi + 0.5
     result = simulate(system, initial_state(system, float(phi0), float(dphi0)), t_end, formulation=Minimal(),
-                      stop_when=lambda t, s, sd: abs(s[0] - phi0) - limit, **REFERENCE)
-    return MOTIONS.index(classify_motion(result, phi0))
+                      stop_when=lambda t, s, sd: abs(s[q] - phi0) - limit, **REFERENCE)
+    return int(motion_codes(np.max(np.abs(result.s[q] - phi0))))
 
 
 def reference_outcomes(phi0_values, dphi0_values, t_end=20.0, cells=None, reading=None):

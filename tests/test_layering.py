@@ -1,0 +1,126 @@
+"""The package's layers: the engine knows no mechanism, study, figure or command; studies draw nothing.
+
+An ``ast`` scan of every module of src/closedloop finds each import, absolute or relative, at
+module level or inside a function, and resolves it to the full module name it reaches.
+
+- The engine (every module except ``slider_crank.py``, ``four_bar.py``, ``studies/``,
+  ``plotting/``, ``cli.py``, ``_moved.py`` and the package's ``__init__.py``) never imports
+  ``slider_crank``, ``four_bar``, ``studies``, ``plotting`` or ``cli``.
+- ``studies/`` never imports ``plotting``, ``cli`` or matplotlib: a study computes, a figure
+  draws, so a figure change never touches the benchmark's source fingerprint.
+"""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+import closedloop
+
+PACKAGE_ROOT = Path(closedloop.__file__).resolve().parent
+PACKAGE = "closedloop"
+NOT_ENGINE = ("slider_crank.py", "four_bar.py", "studies", "plotting", "cli.py", "_moved.py", "__init__.py")
+ENGINE_MAY_NOT_IMPORT = ("slider_crank", "four_bar", "studies", "plotting", "cli")
+STUDIES_MAY_NOT_IMPORT = ("plotting", "cli")
+
+
+def module_name(path):
+    """``closedloop.studies.basin`` for src/closedloop/studies/basin.py; a package is its ``__init__``."""
+    parts = path.relative_to(PACKAGE_ROOT).with_suffix("").parts
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join((PACKAGE, *parts))
+
+
+def imports_of(source, module, is_package=False):
+    """Every import in ``source`` as ``(line, statement, full names reached)``, wherever it stands.
+
+    A relative import is resolved against ``module``; ``from X import a`` reaches ``X`` and
+    ``X.a`` (a may be a submodule); ``importlib.import_module("...")`` with a constant counts too.
+    """
+    package = module if is_package else module.rpartition(".")[0]
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            found.append((node.lineno, ast.unparse(node), [alias.name for alias in node.names]))
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[:len(package.split(".")) - (node.level - 1)]
+                origin = ".".join(base + ([node.module] if node.module else []))
+            else:
+                origin = node.module
+            found.append((node.lineno, ast.unparse(node),
+                          [origin] + [f"{origin}.{alias.name}" for alias in node.names]))
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+              and node.func.attr == "import_module" and node.args and isinstance(node.args[0], ast.Constant)):
+            found.append((node.lineno, ast.unparse(node), [str(node.args[0].value)]))
+    return found
+
+
+def reaches(name, target):
+    """True if the full module name ``name`` is ``target`` or lies below it."""
+    return name == target or name.startswith(target + ".")
+
+
+def violations(path, forbidden):
+    """``"module, line N: statement"`` for each import of ``path`` that reaches a forbidden layer."""
+    module = module_name(path)
+    targets = [f"{PACKAGE}.{name}" if name != "matplotlib" else name for name in forbidden]
+    return [f"{module}, line {line}: {statement}"
+            for line, statement, names in imports_of(path.read_text(encoding="utf-8"), module,
+                                                     path.name == "__init__.py")
+            if any(reaches(name, target) for name in names for target in targets)]
+
+
+def is_engine(path):
+    relative = path.relative_to(PACKAGE_ROOT)
+    return not (relative.parts[0] in NOT_ENGINE or relative.as_posix() == "__init__.py")
+
+
+MODULES = sorted(PACKAGE_ROOT.rglob("*.py"))
+ENGINE = [p for p in MODULES if is_engine(p)]
+STUDIES = [p for p in MODULES if p.relative_to(PACKAGE_ROOT).parts[0] == "studies"]
+
+
+def test_the_layers_are_where_the_rule_says():
+    names = {module_name(p) for p in ENGINE}
+    assert {"closedloop.model", "closedloop.simulation", "closedloop.simulation.dop853",
+            "closedloop.formulations", "closedloop.formulations.minimal", "closedloop.linalg"} <= names
+    assert not names & {"closedloop", "closedloop.slider_crank", "closedloop.cli", "closedloop.plotting"}
+    assert {module_name(p) for p in STUDIES} >= {"closedloop.studies.basin", "closedloop.studies.benchmark",
+                                                 "closedloop.studies.readings"}
+
+
+@pytest.mark.parametrize("path", ENGINE, ids=module_name)
+def test_the_engine_imports_no_mechanism_study_figure_or_command(path):
+    found = violations(path, ENGINE_MAY_NOT_IMPORT)
+    assert not found, "the engine imports an outer layer: " + "; ".join(found)
+
+
+@pytest.mark.parametrize("path", STUDIES, ids=module_name)
+def test_studies_import_no_figure_and_no_command(path):
+    found = violations(path, STUDIES_MAY_NOT_IMPORT + ("matplotlib",))
+    assert not found, "a study imports figures or the command line: " + "; ".join(found)
+
+
+@pytest.mark.parametrize("source, module, reached", [
+    ("from .slider_crank import CASES", "closedloop.simulation", "closedloop.slider_crank"),
+    ("from ..studies.basin import basin_map", "closedloop.formulations.minimal", "closedloop.studies.basin"),
+    ("def f():\n    from .. import plotting\n", "closedloop.simulation.dop853", "closedloop.plotting"),
+    ("import closedloop.cli as cli", "closedloop.model", "closedloop.cli"),
+    ("from closedloop import four_bar", "closedloop.model", "closedloop.four_bar"),
+    ("import importlib\nimportlib.import_module('closedloop.plotting.basin')", "closedloop.model",
+     "closedloop.plotting.basin"),
+])
+def test_the_scan_resolves_every_form_of_import(source, module, reached):
+    names = {name for _, _, names in imports_of(source, module) for name in names}
+    assert reached in names
+    assert not any(reaches(name, "closedloop.linalg") for name in names)      # and nothing it does not reach
+
+
+def test_the_scan_resolves_relative_imports_in_a_package_init():
+    """In a package's __init__, ``.`` is the package itself, not its parent."""
+    [(line, statement, names)] = imports_of("from .dop853 import run", "closedloop.simulation", is_package=True)
+    assert (line, statement, names[0]) == (1, "from .dop853 import run", "closedloop.simulation.dop853")
+    [(_, _, names)] = imports_of("from .dop853 import run", "closedloop.simulation.runner")
+    assert names[0] == "closedloop.simulation.dop853"
