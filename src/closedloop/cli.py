@@ -21,6 +21,7 @@ import sys
 import numpy as np
 
 from .errors import ClosedLoopError, InputError
+from .methods import SOLVER_METHODS
 
 __all__ = ["main", "build_parser"]
 
@@ -51,7 +52,7 @@ def build_parser():
     sim.add_argument("--formulation", default=DEFAULT_FORMULATION,
                      help=f"{', '.join(FORMULATION_NAMES)} (default {DEFAULT_FORMULATION})")
     sim.add_argument("--method", default=DEFAULT_METHOD,
-                     help="solve_ivp method: RK45, RK23, DOP853, Radau, BDF or LSODA (default RK45)")
+                     help=f"integration method: {', '.join(SOLVER_METHODS)} (default {DEFAULT_METHOD})")
     sim.add_argument("--rtol", type=str, default="1e-9", help="relative tolerance (default 1e-9)")
     sim.add_argument("--atol", type=str, default="1e-9", help="absolute tolerance (default 1e-9)")
     sim.add_argument("--alpha", type=str, help="Baumgarte alpha of (15) (default 5)")
@@ -147,7 +148,7 @@ def _initial_condition(args):
 def run_simulate(args):
     """Carry out ``closedloop simulate``; returns the JSON-ready summary."""
     from .formulations import formulation_from_name
-    from .simulation import SOLVER_METHODS, simulate
+    from .simulation import simulate
     from .slider_crank import classify_motion, get_reading, initial_state, slider_crank_system
 
     case, phi0, dphi0 = _initial_condition(args)

@@ -30,17 +30,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import DOP853, RK23, RK45
 
 from ..errors import ConvergenceError, InputError, SingularConfigurationError, at_time
 from ..kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE
 from ..linalg import solve_small
+from ..methods import EXPLICIT_RUNGE_KUTTA_METHODS, SOLVER_CLASSES
 from .redundant import Augmented
 
 __all__ = ["Projected", "project_state", "PROJECTABLE_METHODS"]
 
 #: The solve_ivp methods whose state can be reset after a step.
-PROJECTABLE_METHODS = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853}
+PROJECTABLE_METHODS = {name: SOLVER_CLASSES[name] for name in EXPLICIT_RUNGE_KUTTA_METHODS}
 
 
 def _minimum_norm(Phi, residual, t):

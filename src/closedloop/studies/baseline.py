@@ -30,12 +30,13 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..errors import InputError, IntegrationError
+from ..methods import SOLVE_IVP_METHODS
 from ..slider_crank import DEFAULT_READING, OMEGA, TORQUE_RIPPLE, SliderCrankParameters, get_reading
 
 __all__ = ["LagrangesBaseline", "BaselineResult"]
 
 #: The solve_ivp methods the baseline accepts.
-BASELINE_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+BASELINE_METHODS = SOLVE_IVP_METHODS
 
 
 @dataclass
