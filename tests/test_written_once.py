@@ -1,5 +1,8 @@
 """Rules written once: the method names, the input checks, the gas law, Newton on f = 0, the minimal ODE."""
 
+import math
+
+import numpy as np
 import pytest
 
 import closedloop.methods as methods
@@ -7,6 +10,7 @@ from closedloop import simulation
 from closedloop.cli import build_parser
 from closedloop.formulations.projected import PROJECTABLE_METHODS
 from closedloop.simulation import dop853
+from closedloop.slider_crank import initial_state
 from closedloop.studies import benchmark, baseline
 
 
@@ -27,3 +31,16 @@ def test_the_command_line_help_lists_every_method(capsys):
     for name in methods.SOLVER_METHODS:
         assert f" {name}," in help_text or f" {name} " in help_text
     assert "ode.dop853" in help_text
+
+
+def test_the_dynamics_are_a_named_tuple_that_still_unpacks(slider_crank):
+    state = initial_state(slider_crank, math.pi / 2, 1.0)
+    dynamics = slider_crank.dynamics(0.0, state.s, state.sd)
+    M, p1, constraint_values, Phi, gamma = dynamics
+    assert dynamics.mass_matrix is M and dynamics.jacobian is Phi
+    assert dynamics.constraints is constraint_values and dynamics.jacobian_rate_product is gamma
+    assert np.abs(dynamics.constraints).max() < 1e-14            # a consistent state: f = 0 (6)
+    # Table 1: the slider's mass m3 = 25 kg is the last diagonal entry of M
+    assert dynamics.mass_matrix[2, 2] == 25.0
+    many = slider_crank.dynamics_many(0.0, state.s[:, None], state.sd[:, None])
+    np.testing.assert_allclose(many.jacobian[:, :, 0], Phi, rtol=1e-14)

@@ -58,7 +58,7 @@ class Augmented(Formulation):
 
     def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (12)."""
-        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
+        M, p1, _, Phi, gamma = system.dynamics(t, s, sd, mode)
         return solve_augmented(M, Phi, p1, -gamma, t)[0]
 
 
@@ -95,8 +95,9 @@ class Baumgarte(_Stabilised):
 
     def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (16) with Baumgarte's p2~ of (17)."""
-        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
-        return solve_augmented(M, Phi, p1, baumgarte_p2(Phi, gamma, f, sd, self.alpha, self.beta), t)[0]
+        M, p1, constraint_values, Phi, gamma = system.dynamics(t, s, sd, mode)
+        p2 = baumgarte_p2(Phi, gamma, constraint_values, sd, self.alpha, self.beta)
+        return solve_augmented(M, Phi, p1, p2, t)[0]
 
 
 
@@ -124,10 +125,10 @@ class Orthogonal(_Stabilised):
 
     def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (26)."""
-        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
+        M, p1, constraint_values, Phi, gamma = system.dynamics(t, s, sd, mode)
         R = orthogonal_complement(Phi, system.q_index, system.z_index, t)
         A = np.vstack((R.T @ M, Phi))                                       # (25)
-        p = np.concatenate((R.T @ p1, baumgarte_p2(Phi, gamma, f, sd, self.alpha, self.beta)))
+        p = np.concatenate((R.T @ p1, baumgarte_p2(Phi, gamma, constraint_values, sd, self.alpha, self.beta)))
         return np.linalg.solve(A, p)                                         # (26)
 
 
@@ -163,8 +164,8 @@ class NullSpace(_Stabilised):
 
     def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (26) with N in place of R."""
-        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
+        M, p1, constraint_values, Phi, gamma = system.dynamics(t, s, sd, mode)
         N = null_space_basis(Phi, self.basis, t)
         A = np.vstack((N.T @ M, Phi))
-        p = np.concatenate((N.T @ p1, baumgarte_p2(Phi, gamma, f, sd, self.alpha, self.beta)))
+        p = np.concatenate((N.T @ p1, baumgarte_p2(Phi, gamma, constraint_values, sd, self.alpha, self.beta)))
         return np.linalg.solve(A, p)
