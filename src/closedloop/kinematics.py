@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import ConvergenceError, InputError, SingularConfigurationError, at_time
+from .errors import ConvergenceError, SingularConfigurationError, at_time
 from .linalg import orthogonal_complement, solve_small
+from .validation import finite_array
 
 __all__ = ["solve_dependent", "dependent_velocities", "consistent_initial_state", "InitialState"]
 
@@ -123,13 +124,8 @@ def consistent_initial_state(system, q0, qd0, z_guess):
     -------
     InitialState
     """
-    q0 = np.atleast_1d(np.asarray(q0, dtype=float))
-    qd0 = np.atleast_1d(np.asarray(qd0, dtype=float))
-    z_guess = np.atleast_1d(np.asarray(z_guess, dtype=float))
-    for name, value, size in (("q0", q0, system.f), ("qd0", qd0, system.f), ("z_guess", z_guess, system.r)):
-        if value.shape != (size,):
-            raise InputError(f"{name}: need {size} values, got {value.size}")
-        if not np.all(np.isfinite(value)):
-            raise InputError(f"{name}: must be finite, got {value}")
+    q0 = finite_array("q0", q0, size=system.f)
+    qd0 = finite_array("qd0", qd0, size=system.f)
+    z_guess = finite_array("z_guess", z_guess, size=system.r)
     s = solve_dependent(system, q0, z_guess)
     return InitialState(s, dependent_velocities(system, s, qd0))

@@ -25,6 +25,7 @@ import sympy as sp
 
 from .errors import InputError, SingularConfigurationError, at_time
 from .linalg import CONDITION_LIMIT, condition_number, orthogonal_complement, solve_augmented
+from .validation import finite_number
 
 __all__ = ["MultibodyModel", "DerivedModel", "derive", "System", "Dynamics", "array_functions", "condition_number",
            "CONDITION_LIMIT"]
@@ -296,10 +297,8 @@ class System:
         missing = [str(p) for p in model.parameters if str(p) not in by_name]
         if missing:
             raise InputError(f"parameter_values: missing values for {missing}")
-        values = np.array([float(by_name[str(p)]) for p in model.parameters], dtype=float)
-        bad = [str(p) for p, v in zip(model.parameters, values) if not np.isfinite(v)]
-        if bad:
-            raise InputError(f"parameter_values: {bad} must be finite numbers")
+        values = np.array([finite_number(f"parameter_values[{str(p)!r}]", by_name[str(p)])
+                           for p in model.parameters], dtype=float)
         self.model = model
         self.derived = derive(model)
         self.parameter_values = values

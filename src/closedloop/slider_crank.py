@@ -26,6 +26,7 @@ from .errors import InputError
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
 from .model import MultibodyModel, System
+from .validation import finite_number, instance_of, one_of
 
 __all__ = [
     "SliderCrankParameters",
@@ -101,13 +102,8 @@ class SliderCrankParameters:
         for item in fields(self):
             if item.name == "full_rotation":
                 continue
-            value = getattr(self, item.name)
-            if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
-                raise InputError(f"{item.name}: must be a finite number [{units[item.name]}], got {value!r}")
-            allow_zero = item.name in ("a1", "a2", "g")
-            if value < 0 or (value == 0 and not allow_zero):
-                bound = ">= 0" if allow_zero else "> 0"
-                raise InputError(f"{item.name}: must be {bound} [{units[item.name]}], got {value!r}")
+            finite_number(item.name, getattr(self, item.name), minimum=0.0,
+                          strict=item.name not in ("a1", "a2", "g"), unit=units[item.name])
         if self.full_rotation and self.l1 >= self.l2:
             raise InputError(
                 f"l1: must be < l2 = {self.l2:g} m, got {self.l1:g} m: with l1 >= l2 the crank cannot "
@@ -181,9 +177,7 @@ def get_reading(name):
     """The :class:`Reading` called ``name``, or a clear error."""
     if isinstance(name, Reading):
         return name
-    if name not in READINGS:
-        raise InputError(f"reading: unknown {name!r}; choose one of {', '.join(READINGS)}")
-    return READINGS[name]
+    return READINGS[one_of("reading", name, READINGS)]
 
 
 OMEGA = 2.0 * math.pi          # rad/s, the torque's ripple frequency
@@ -318,9 +312,8 @@ def slider_crank_system(parameters=None, reading=DEFAULT_READING, torque=True, g
     torque, gas : bool, optional
         Switch the drive torque or the gas force off (for energy checks).
     """
-    parameters = SliderCrankParameters() if parameters is None else parameters
-    if not isinstance(parameters, SliderCrankParameters):
-        raise InputError("parameters: expected a SliderCrankParameters")
+    parameters = instance_of("parameters", SliderCrankParameters() if parameters is None else parameters,
+                             SliderCrankParameters)
     reading = get_reading(reading)
     values = parameters.as_dict()
     values.update(torque_mean=reading.torque_mean if torque else 0.0,
@@ -358,9 +351,7 @@ CASES = {
 
 def get_case(number):
     """The :class:`Case` numbered ``number`` (1-4), or a clear error."""
-    if number not in CASES:
-        raise InputError(f"case: unknown {number!r}; choose 1, 2, 3 or 4")
-    return CASES[number]
+    return CASES[one_of("case", number, CASES)]
 
 
 def initial_state(system, phi0, dphi0) -> InitialState:
@@ -370,9 +361,8 @@ def initial_state(system, phi0, dphi0) -> InitialState:
     right of the crank (psi near pi; at phi0 = pi the slider is at the inner
     dead centre x_C = l2 - l1), then psi'(0), x_C'(0) follow from (9).
     """
-    for name, value in (("phi0", phi0), ("dphi0", dphi0)):
-        if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value)):
-            raise InputError(f"phi0, dphi0: {name} must be a finite number, got {value!r}")
+    phi0 = finite_number("phi0", phi0, unit="rad")
+    dphi0 = finite_number("dphi0", dphi0, unit="rad/s")
     p = system.parameters
     if abs(p.l1 * math.sin(phi0)) > p.l2:
         raise InputError(

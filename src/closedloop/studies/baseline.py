@@ -22,16 +22,16 @@ can compare the library with what a reader would otherwise have:
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..errors import InputError, IntegrationError
+from ..errors import IntegrationError
 from ..methods import SOLVE_IVP_METHODS
 from ..slider_crank import DEFAULT_READING, OMEGA, TORQUE_RIPPLE, SliderCrankParameters, get_reading
+from ..validation import instance_of, one_of, positive_number
 
 __all__ = ["LagrangesBaseline", "BaselineResult"]
 
@@ -84,10 +84,8 @@ class LagrangesBaseline:
     """
 
     def __init__(self, parameters=None, reading=DEFAULT_READING):
-        parameters = SliderCrankParameters() if parameters is None else parameters
-        if not isinstance(parameters, SliderCrankParameters):
-            raise InputError("parameters: expected a SliderCrankParameters")
-        self.parameters = parameters
+        self.parameters = instance_of("parameters", SliderCrankParameters() if parameters is None else parameters,
+                                      SliderCrankParameters)
         self.reading = get_reading(reading)
         start = time.process_time()
         self._mass_full, self._forcing_full = self._derive()
@@ -167,13 +165,10 @@ class LagrangesBaseline:
         IntegrationError
             If solve_ivp fails; the message names the time reached.
         """
-        if not (isinstance(t_end, (int, float, np.floating)) and math.isfinite(t_end) and t_end > 0):
-            raise InputError(f"t_end: must be a finite number > 0 s, got {t_end!r}")
-        if method not in BASELINE_METHODS:
-            raise InputError(f"method: unknown {method!r}; choose one of {', '.join(BASELINE_METHODS)}")
-        for name, value in (("rtol", rtol), ("atol", atol)):
-            if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value > 0):
-                raise InputError(f"{name}: must be finite and > 0, got {value!r}")
+        positive_number("t_end", t_end, unit="s")
+        one_of("method", method, BASELINE_METHODS)
+        positive_number("rtol", rtol)
+        positive_number("atol", atol)
         y0 = np.concatenate((initial_state.s, initial_state.sd))
         start = time.process_time()
         sol = solve_ivp(self.rhs, (0.0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval)

@@ -53,6 +53,7 @@ from ..errors import ConvergenceError, InputError, IntegrationError, SingularCon
 from ..kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE
 from ..linalg import solve_many
 from ..slider_crank import MOTIONS, initial_state, motion_codes, slider_crank_system
+from ..validation import finite_array, positive_number
 
 __all__ = ["BasinMap", "basin_map", "integrate_outcomes", "reference_outcomes", "boundary_cells",
            "compare_outcomes", "Agreement", "DEFAULT_STEP", "grid_values"]
@@ -274,9 +275,8 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
 
 
 def _check_time(t_end, step):
-    for name, value in (("t_end", t_end), ("step", step)):
-        if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value > 0):
-            raise InputError(f"{name}: must be a finite number > 0 s, got {value!r}")
+    positive_number("t_end", t_end, unit="s")
+    positive_number("step", step, unit="s")
     if step > t_end:
         raise InputError(f"step: must be <= t_end = {t_end:g} s, got {step:g} s")
 
@@ -620,11 +620,9 @@ def _cell_index(values, value):
 def _check_grid(phi0_values, dphi0_values):
     arrays = []
     for name, values in (("phi0", phi0_values), ("dphi0", dphi0_values)):
-        values = np.atleast_1d(np.asarray(values, dtype=float))
-        if values.ndim != 1 or values.size == 0:
+        if np.ndim(values) > 1 or np.size(values) == 0:
             raise InputError(f"{name}: need a non-empty list of values")
-        if not np.all(np.isfinite(values)):
-            raise InputError(f"{name}: values must be finite")
+        values = finite_array(name, values)
         if values.size > 1 and np.any(np.diff(values) <= 0):
             raise InputError(f"{name}: values must increase strictly")
         arrays.append(values)

@@ -32,6 +32,7 @@ from scipy.integrate import cumulative_trapezoid, quad
 from ..errors import InputError
 from ..slider_crank import (DEFAULT_READING, OMEGA, SliderCrankParameters, drive_torque, gas_force,
                            get_reading, initial_state)
+from ..validation import instance_of
 
 __all__ = [
     "torque_work_per_turn",
@@ -97,9 +98,8 @@ def gas_work_per_cycle(parameters=None, reading=DEFAULT_READING):
     float
         About -260.4 J in the paper's reading: the gas takes energy out.
     """
-    parameters = SliderCrankParameters() if parameters is None else parameters
-    if not isinstance(parameters, SliderCrankParameters):
-        raise InputError("parameters: expected a SliderCrankParameters")
+    parameters = instance_of("parameters", SliderCrankParameters() if parameters is None else parameters,
+                             SliderCrankParameters)
     reading = get_reading(reading)
     inner, outer = parameters.l2 - parameters.l1, parameters.l2 + parameters.l1
     low, high = max(inner, GAS_STROKE[0]), min(outer, GAS_STROKE[1])
