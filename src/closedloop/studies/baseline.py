@@ -11,8 +11,9 @@ can compare the library with what a reader would otherwise have:
 - ``LagrangesMethod(L, [phi, psi, x], hol_coneqs=..., forcelist=..., frame=N)``,
   with the drive torque as ``(A, M(t) N.z)`` on the crank frame A and the gas
   force as ``(P, F N.x)`` on the slider point P = O + x_C N.x;
-- the gas force as a sympy ``Piecewise`` in (x_C, x_C'), with the same branches
-  and the same reading of the data as :class:`closedloop.slider_crank.GasForce`;
+- the gas force as a sympy ``Piecewise`` in (x_C, x_C'), the printed law of
+  :func:`closedloop.gas_law.printed_law` (the one source of the law in the
+  library) with the same reading of the data as :class:`closedloop.slider_crank.GasForce`;
   the usual user integrates straight through its switches (no events);
 - Table 1 values substituted, ``mass_matrix_full`` and ``forcing_full`` turned
   into functions by ``lambdify`` with its default settings, and the right-hand
@@ -28,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from .. import gas_law
 from ..errors import IntegrationError
 from ..methods import SOLVE_IVP_METHODS
 from ..slider_crank import DEFAULT_READING, OMEGA, TORQUE_RIPPLE, SliderCrankParameters, get_reading
@@ -115,12 +117,7 @@ class LagrangesBaseline:
 
         reading = self.reading
         torque = reading.torque_mean + TORQUE_RIPPLE * sm.sin(OMEGA * t)
-        a, b, c = reading.gas_coefficients
-        gas = reading.force_sign * sm.Piecewise(
-            (-a / (6 - x) + b, (dx > 0) & (x >= 1.5) & (x <= 5)),
-            (-c * (1 - sm.sin(2 * sm.pi * (x - sm.Rational(21, 4)))), (dx > 0) & (x > 5) & (x <= 5.5)),
-            (0, True),
-        )
+        gas = reading.force_sign * gas_law.printed_law(x, dx, reading.gas_coefficients)
 
         method = me.LagrangesMethod(T - Pi, [phi, psi, x], hol_coneqs=[f1, f2],
                                     forcelist=[(A, torque * N.z), (P, gas * N.x)], frame=N)

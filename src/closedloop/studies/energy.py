@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import cumulative_trapezoid, quad
 
+from .. import gas_law
 from ..errors import InputError
 from ..slider_crank import (DEFAULT_READING, OMEGA, SliderCrankParameters, drive_torque, gas_force,
                            get_reading, initial_state)
@@ -47,7 +48,7 @@ __all__ = [
 ]
 
 #: Where the printed gas law holds: the inner and outer dead centres of Table 1's slider [m].
-GAS_STROKE = (1.5, 5.5)
+GAS_STROKE = gas_law.STROKE
 
 
 def torque_work_per_turn(reading=DEFAULT_READING):
@@ -105,7 +106,7 @@ def gas_work_per_cycle(parameters=None, reading=DEFAULT_READING):
     low, high = max(inner, GAS_STROKE[0]), min(outer, GAS_STROKE[1])
     if low >= high:
         return 0.0
-    breaks = [5.0] if low < 5.0 < high else None
+    breaks = [gas_law.CHANGE_POINT] if low < gas_law.CHANGE_POINT < high else None
     work = quad(lambda x: gas_force(x, 1.0, reading), low, high, points=breaks)[0]
     return reading.force_sign * work
 
@@ -115,10 +116,12 @@ def gas_outward_work(x, reading=DEFAULT_READING):
 
     With ``a, b, c`` = 282.857, 62.857, 110 (scaled by the reading)::
 
-        U(x) = a ln((6 - x)/4.5) + b (x - 1.5)                           1.5 <= x <= 5
-        U(x) = U(5) - c (x - 5) - c cos(2 pi (x - 5.25)) / (2 pi)        5 <= x <= 5.5
+        U(x) = a ln((6 - x)/4.5) + b (x - 1.5)                                  1.5 <= x <= 5
+        U(x) = U(5) - c (x - 5) - c [cos(2 pi (x - 5.25)) - cos(-pi/2)] / (2 pi)   5 <= x <= 5.5
 
     times the reading's ``force_sign``; constant outside [1.5, 5.5], where F = 0.
+    Both pieces are the integrals of the law of :mod:`closedloop.gas_law`,
+    computed by sympy (:func:`closedloop.gas_law.outward_work_functions`).
     The work the gas does while the slider moves out from x_a to x_b is
     ``U(x_b) - U(x_a)``; moving in, it does none.
 
@@ -128,12 +131,11 @@ def gas_outward_work(x, reading=DEFAULT_READING):
     reading : str or Reading, optional
     """
     reading = get_reading(reading)
-    a, b, c = reading.gas_coefficients
+    inner_work, outer_work = gas_law.outward_work_functions()
     x = np.clip(np.asarray(x, dtype=float), *GAS_STROKE)
-    inner = np.minimum(x, 5.0)
-    value = a * np.log((6.0 - inner) / 4.5) + b * (inner - 1.5)
-    beyond = np.maximum(x - 5.0, 0.0)
-    value = value - c * beyond - c * (np.cos(2.0 * np.pi * (5.0 + beyond - 5.25))) / (2.0 * np.pi)
+    change = gas_law.CHANGE_POINT
+    value = (inner_work(np.minimum(x, change), *reading.gas_coefficients)
+             + outer_work(np.maximum(x, change), *reading.gas_coefficients))
     value = reading.force_sign * value
     return value if value.ndim else float(value)
 
