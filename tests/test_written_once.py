@@ -9,7 +9,8 @@ import sympy as sp
 import closedloop.gas_law as gas_law
 import closedloop.methods as methods
 import closedloop.validation as validation
-from closedloop import Baumgarte, InputError, baumgarte_from_step
+from closedloop import Baumgarte, ConvergenceError, InputError, baumgarte_from_step
+from closedloop.kinematics import solve_dependent, solve_dependent_many
 from closedloop import simulation
 from closedloop.cli import build_parser
 from closedloop.formulations.projected import PROJECTABLE_METHODS
@@ -148,3 +149,23 @@ def test_the_outward_work_is_the_integral_of_the_law():
     whole_stroke = 282.857 * math.log(1 / 4.5) + 62.857 * 3.5 - 55.0
     assert gas_outward_work(5.5) - gas_outward_work(1.5) == pytest.approx(whole_stroke, rel=1e-13)
     assert whole_stroke == pytest.approx(-260.4393, abs=1e-4)
+
+
+def test_one_newton_loop_serves_one_state_and_a_batch(slider_crank):
+    angles = np.array([0.3, math.pi / 2, 2.0, math.pi, 4.0])
+    guesses = np.array([[math.pi - 0.1] * angles.size, [1.0] * angles.size])   # psi near pi, x_C anywhere
+    batch, Phi = solve_dependent_many(slider_crank, angles, guesses)
+    for j, angle in enumerate(angles):
+        one = solve_dependent(slider_crank, np.array([angle]), guesses[:, j])
+        np.testing.assert_allclose(batch[:, j], one, rtol=0, atol=1e-14)
+        # (27)-(28) with Table 1: l1 sin(phi) = l2 sin(psi) and x_C = l1 cos(phi) - l2 cos(psi)
+        assert 2.0 * math.sin(angle) == pytest.approx(3.5 * math.sin(one[1]), abs=1e-14)
+        assert one[2] == pytest.approx(2.0 * math.cos(angle) - 3.5 * math.cos(one[1]), abs=1e-14)
+    assert batch[2, 3] == pytest.approx(1.5, abs=1e-14)          # phi = pi: x_C = l2 - l1
+    np.testing.assert_allclose(Phi[:, :, 1], slider_crank.jacobian(batch[:, 1]), rtol=1e-14, atol=1e-15)
+
+
+def test_a_batch_that_does_not_assemble_is_refused(slider_crank):
+    with pytest.raises(ConvergenceError, match=r"did not converge in 3 iterations for some cells"):
+        solve_dependent_many(slider_crank, np.array([1.0, 2.0]), np.array([[3.0, 3.0], [40.0, 1.0]]),
+                             max_iterations=3)

@@ -49,8 +49,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ConvergenceError, InputError, IntegrationError, SingularConfigurationError
-from ..kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE
+from ..errors import InputError, IntegrationError, SingularConfigurationError
+from ..kinematics import solve_dependent_many
 from ..linalg import solve_many
 from ..slider_crank import MOTIONS, initial_state, motion_codes, slider_crank_system
 from ..validation import finite_array, positive_number
@@ -95,25 +95,7 @@ class _Model:
 
     def configuration(self, q, z_guess):
         """s and Phi_s with s[q] = q and z from Newton on f(q, z) = 0 (6), started at z_guess."""
-        system, zi = self.system, self.z
-        s = np.empty((system.n, q.size))
-        s[self.q] = q
-        s[zi] = z_guess
-        for _ in range(NEWTON_MAX_ITERATIONS):
-            f, Phi = system.constraints_and_jacobian_many(s)
-            scale = 1.0 + np.abs(s).max(axis=0)
-            if np.all(np.abs(f).max(axis=0) <= NEWTON_TOLERANCE * scale):
-                return s, Phi
-            step = solve_many(Phi[:, zi], f)
-            s[zi] -= step
-            if not np.all(np.isfinite(s)):
-                break
-            if np.all(np.abs(step).max(axis=0) <= NEWTON_TOLERANCE * (1.0 + np.abs(s[zi]).max(axis=0))):
-                return s, system.constraints_and_jacobian_many(s)[1]
-        raise ConvergenceError(
-            f"Newton on f(q, z) = 0 did not converge in {NEWTON_MAX_ITERATIONS} iterations for some "
-            "cells of the batch: the mechanism may not assemble there"
-        )
+        return solve_dependent_many(self.system, q, z_guess)
 
     def evaluate(self, t, q, qd, z_guess, mode):
         """The state and its accelerations at K cells, each on its branch ``mode[:, j]``.
