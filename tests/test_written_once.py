@@ -9,7 +9,9 @@ import sympy as sp
 import closedloop.gas_law as gas_law
 import closedloop.methods as methods
 import closedloop.validation as validation
-from closedloop import Baumgarte, ConvergenceError, InputError, baumgarte_from_step
+from closedloop import Baumgarte, ConvergenceError, InputError, Minimal, baumgarte_from_step
+from closedloop.formulations.minimal import MinimalUnpacker, minimal_accelerations
+from closedloop.linalg import orthogonal_complement_many
 from closedloop.kinematics import solve_dependent, solve_dependent_many
 from closedloop import simulation
 from closedloop.cli import build_parser
@@ -169,3 +171,48 @@ def test_a_batch_that_does_not_assemble_is_refused(slider_crank):
     with pytest.raises(ConvergenceError, match=r"did not converge in 3 iterations for some cells"):
         solve_dependent_many(slider_crank, np.array([1.0, 2.0]), np.array([[3.0, 3.0], [40.0, 1.0]]),
                              max_iterations=3)
+
+
+def test_the_batched_orthogonal_complement_is_R_of_20_at_every_state(slider_crank):
+    angles = np.array([0.4, 1.9, 3.0])
+    s, Phi = solve_dependent_many(slider_crank, angles, np.array([[3.0] * 3, [1.5] * 3]))
+    R = orthogonal_complement_many(Phi, slider_crank.q_index, slider_crank.z_index)
+    assert R.shape == (3, 1, 3)
+    for j in range(angles.size):
+        np.testing.assert_allclose(R[:, :, j], slider_crank.orthogonal_complement(s[:, j]), rtol=1e-15, atol=0)
+        np.testing.assert_allclose(Phi[:, :, j] @ R[:, :, j], 0.0, atol=1e-15)          # (18)
+    # dpsi/dphi = l1 cos(phi) / (l2 cos(psi)) from (28)
+    assert R[1, 0, 0] == pytest.approx(2.0 * math.cos(0.4) / (3.5 * math.cos(s[1, 0])), rel=1e-14)
+
+
+def test_the_minimal_ode_is_one_function_for_one_state_and_a_batch(slider_crank):
+    states = [initial_state(slider_crank, angle, speed) for angle, speed in ((0.5, 1.0), (2.5, -0.7))]
+    one = [Minimal().accelerations(slider_crank, 0.3, state.s, state.sd) for state in states]
+    for state, accelerations in zip(states, one):         # the same s'' as the augmented system (12)
+        np.testing.assert_allclose(accelerations, slider_crank.constrained_accelerations(0.3, state.s, state.sd)[0],
+                                   rtol=1e-11, atol=1e-12)
+    s = np.column_stack([state.s for state in states])
+    sd = np.column_stack([state.sd for state in states])
+    M, p1, _, Phi, gamma = slider_crank.dynamics_many(0.3, s, sd)
+    p1 = p1 + np.column_stack([slider_crank.force(0.3, state.s, state.sd, slider_crank.force.mode_at(
+        0.3, state.s, state.sd)) for state in states])
+    R = orthogonal_complement_many(Phi, slider_crank.q_index, slider_crank.z_index)
+    qdd, c = minimal_accelerations(M, p1, Phi, gamma, R, slider_crank.z_index)
+    batch = np.einsum("ilk,lk->ik", R, qdd) + c
+    np.testing.assert_allclose(batch, np.column_stack(one), rtol=1e-12, atol=1e-13)
+
+
+def test_the_minimal_unpacker_is_an_object_with_seed_and_with_R(slider_crank):
+    state = initial_state(slider_crank, 1.0, 2.0)
+    unpack = Minimal().unpacker(slider_crank)
+    assert isinstance(unpack, MinimalUnpacker)
+    unpack.seed(state.s)
+    y = Minimal().pack(slider_crank, state.s, state.sd)
+    s, sd = unpack(y, 0.0)
+    np.testing.assert_allclose(s, state.s, atol=1e-14)
+    np.testing.assert_allclose(sd, state.sd, atol=1e-14)
+    again, R = unpack.with_R(y, 0.0)
+    assert again is s                                 # the same y costs nothing: the last solution comes back
+    assert R[0, 0] == 1.0 and R[2, 0] == pytest.approx(state.sd[2] / state.sd[0], rel=1e-13)   # x_C' = R_x phi'
+    moved, _ = unpack(y + np.array([0.01, 0.0]), 0.01)  # Newton follows q from the prediction
+    assert moved[0] == 1.01 and 2.0 * math.sin(1.01) == pytest.approx(3.5 * math.sin(moved[1]), abs=1e-14)

@@ -50,8 +50,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError, IntegrationError, SingularConfigurationError
+from ..formulations.minimal import minimal_accelerations
 from ..kinematics import solve_dependent_many
-from ..linalg import solve_many
+from ..linalg import orthogonal_complement_many
 from ..slider_crank import MOTIONS, initial_state, motion_codes, slider_crank_system
 from ..validation import finite_array, positive_number
 
@@ -108,20 +109,15 @@ class _Model:
         return point
 
     def _accelerations(self, t, s, Phi, qd, mode):
-        system, zi = self.system, self.z
+        system = self.system
         size = s.shape[1]
-        R = np.empty((system.n, size))
-        R[self.q] = 1.0
-        R[zi] = -solve_many(Phi[:, zi], Phi[:, [self.q]][:, 0])      # (20)
-        sd = R * qd
+        R = orthogonal_complement_many(Phi, system.q_index, self.z)      # (20), shape (n, 1, K)
+        sd = R[:, 0] * qd
         M, p1, _, _, gamma = system.dynamics_many(t, s, sd)
         if self.force is not None:
             p1 = p1 + self.force.many(t, s, sd, mode)
-        c = np.zeros((system.n, size))
-        c[zi] = solve_many(Phi[:, zi], -gamma)                          # from (10)
-        A = np.einsum("ik,ijk,jk->k", R, M, R)                           # R^T M R
-        b = np.einsum("ik,ik->k", R, p1 - np.einsum("ijk,jk->ik", M, c))
-        qdd = b / A
+        qdd, c = minimal_accelerations(M, p1, Phi, gamma, R, self.z)
+        qdd, R = qdd[0], R[:, 0]
         self.evaluations += 1
         self.cell_evaluations += size
         return {"sd": sd, "sdd": R * qdd + c, "qdd": qdd, "R": R, "c": c}
