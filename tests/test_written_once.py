@@ -9,7 +9,7 @@ import sympy as sp
 import closedloop.gas_law as gas_law
 import closedloop.methods as methods
 import closedloop.validation as validation
-from closedloop import Baumgarte, ConvergenceError, InputError, Minimal, baumgarte_from_step
+from closedloop import Baumgarte, ConvergenceError, InputError, Minimal, System, baumgarte_from_step
 from closedloop.formulations.minimal import MinimalUnpacker, minimal_accelerations
 from closedloop.linalg import orthogonal_complement_many
 from closedloop.kinematics import solve_dependent, solve_dependent_many
@@ -216,3 +216,12 @@ def test_the_minimal_unpacker_is_an_object_with_seed_and_with_R(slider_crank):
     assert R[0, 0] == 1.0 and R[2, 0] == pytest.approx(state.sd[2] / state.sd[0], rel=1e-13)   # x_C' = R_x phi'
     moved, _ = unpack(y + np.array([0.01, 0.0]), 0.01)  # Newton follows q from the prediction
     assert moved[0] == 1.01 and 2.0 * math.sin(1.01) == pytest.approx(3.5 * math.sin(moved[1]), abs=1e-14)
+
+
+def test_the_energy_bookkeeping_refuses_another_system(slider_crank):
+    from closedloop.studies.energy import crank_landscape
+
+    plain = System(slider_crank.model, dict(zip(map(str, slider_crank.model.parameters), slider_crank.parameter_values)))
+    with pytest.raises(InputError, match=r"^system: expected a SliderCrankSystem, got System$"):
+        crank_landscape(plain, [0.0, 1.0])
+    assert crank_landscape(slider_crank, [0.0, 1.0]).slope[0] == pytest.approx(0.0, abs=1e-14)  # x_C' = 0 at phi = 0

@@ -31,8 +31,8 @@ from scipy.integrate import cumulative_trapezoid, quad
 
 from .. import gas_law
 from ..errors import InputError
-from ..slider_crank import (DEFAULT_READING, OMEGA, SliderCrankParameters, drive_torque, gas_force,
-                           get_reading, initial_state)
+from ..slider_crank import (DEFAULT_READING, OMEGA, SliderCrankParameters, SliderCrankSystem, drive_torque,
+                           gas_force, get_reading, initial_state)
 from ..validation import instance_of
 
 __all__ = [
@@ -220,9 +220,7 @@ def non_conservative_work(system, result):
     -------
     WorkHistory
     """
-    reading = getattr(system, "reading", None)
-    if reading is None:
-        raise InputError("system: expected a slider-crank system from slider_crank_system()")
+    reading = instance_of("system", system, SliderCrankSystem).reading
     values = _values(system)
     t, phi, phi_dot = result.t, result.coordinate("phi"), result.velocity("phi")
     ripple_power = values["torque_ripple"] * np.sin(values["omega"] * t) * phi_dot
@@ -301,9 +299,7 @@ def crank_landscape(system, phi):
     -------
     Landscape
     """
-    reading = getattr(system, "reading", None)
-    if reading is None:
-        raise InputError("system: expected a slider-crank system from slider_crank_system()")
+    reading = instance_of("system", system, SliderCrankSystem).reading
     phi = np.asarray(phi, dtype=float)
     if phi.ndim != 1 or phi.size < 2 or np.any(np.diff(phi) <= 0):
         raise InputError("phi: must be a strictly increasing 1-d array of at least two angles")
