@@ -221,7 +221,8 @@ def test_the_minimal_unpacker_is_an_object_with_seed_and_with_R(slider_crank):
 def test_the_energy_bookkeeping_refuses_another_system(slider_crank):
     from closedloop.studies.energy import crank_landscape
 
-    plain = System(slider_crank.model, dict(zip(map(str, slider_crank.model.parameters), slider_crank.parameter_values)))
+    values = dict(zip(map(str, slider_crank.model.parameters), slider_crank.parameter_values))
+    plain = System(slider_crank.model, values)
     with pytest.raises(InputError, match=r"^system: expected a SliderCrankSystem, got System$"):
         crank_landscape(plain, [0.0, 1.0])
     assert crank_landscape(slider_crank, [0.0, 1.0]).slope[0] == pytest.approx(0.0, abs=1e-14)  # x_C' = 0 at phi = 0

@@ -15,7 +15,8 @@ from scipy.linalg import qr
 from .errors import SingularConfigurationError, at_time
 
 __all__ = ["solve_augmented", "solve_small", "solve_many", "condition_number", "orthogonal_complement",
-           "orthogonal_complement_many", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT", "NULL_SPACE_BASES"]
+           "orthogonal_complement_many", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
+           "NULL_SPACE_BASES"]
 
 
 def solve_augmented(M, Phi, p1, p2, t=None):
