@@ -53,17 +53,17 @@ def test_plot_writes_a_png(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--case", "7"], "case: unknown 7; choose 1, 2, 3 or 4"),
+    (["--case", "7"], "case: unknown 7; choose one of 1, 2, 3, 4"),
     (["--case", "two"], "case: unknown 'two'"),
-    (["--case", "1", "--t-end", "-2"], "t_end: must be > 0"),
-    (["--case", "1", "--rtol", "0"], "rtol: must be > 0"),
-    (["--case", "1", "--atol", "-1"], "atol: must be > 0"),
+    (["--case", "1", "--t-end", "-2"], "t_end: must be a finite number > 0 s"),
+    (["--case", "1", "--rtol", "0"], "rtol: must be a finite number > 0"),
+    (["--case", "1", "--atol", "-1"], "atol: must be a finite number > 0"),
     (["--case", "1", "--alpha", "-3"], "alpha: must be a finite number >= 0"),
     (["--case", "1", "--beta", "-3"], "beta: must be a finite number >= 0"),
     (["--case", "1", "--formulation", "kane"], "formulation: unknown 'kane'"),
     (["--case", "1", "--method", "Euler"], "method: unknown 'Euler'"),
     (["--case", "1", "--reading", "hundreds"], "reading: unknown 'hundreds'"),
-    (["--phi0", "nan", "--dphi0", "1"], "phi0: must be finite"),
+    (["--phi0", "nan", "--dphi0", "1"], "phi0: must be a finite number"),
     (["--phi0", "1"], "--phi0, --dphi0: give both"),
     (["--case", "1", "--frobnicate"], "unrecognized arguments"),
 ])
@@ -79,5 +79,5 @@ def test_installed_command_prints_no_traceback_on_bad_input():
     """The same through a real process, as a reader would run it."""
     done = run("simulate", "--case", "1", "--t-end", "0")
     assert done.returncode == 2
-    assert done.stderr.strip() == "closedloop: error: t_end: must be > 0 s, got 0"
+    assert done.stderr.strip() == "closedloop: error: t_end: must be a finite number > 0 s, got 0.0"
     assert "Traceback" not in done.stderr

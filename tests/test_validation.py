@@ -63,7 +63,7 @@ def test_baumgarte_gains_must_not_be_negative(kind, gain):
 
 
 def test_unknown_names_are_refused_with_the_choices(slider_crank, state):
-    with pytest.raises(InputError, match=r"^case: unknown 5; choose 1, 2, 3 or 4"):
+    with pytest.raises(InputError, match=r"^case: unknown 5; choose one of 1, 2, 3, 4"):
         get_case(5)
     with pytest.raises(InputError, match=r"^formulation: unknown 'lagrange'; choose one of augmented"):
         formulation_from_name("lagrange")

@@ -21,6 +21,8 @@ import sys
 import numpy as np
 
 from .errors import ClosedLoopError, InputError
+from .methods import SOLVER_METHODS
+from .validation import finite_number, one_of, positive_integer
 
 __all__ = ["main", "build_parser"]
 
@@ -51,7 +53,7 @@ def build_parser():
     sim.add_argument("--formulation", default=DEFAULT_FORMULATION,
                      help=f"{', '.join(FORMULATION_NAMES)} (default {DEFAULT_FORMULATION})")
     sim.add_argument("--method", default=DEFAULT_METHOD,
-                     help="solve_ivp method: RK45, RK23, DOP853, Radau, BDF or LSODA (default RK45)")
+                     help=f"integration method: {', '.join(SOLVER_METHODS)} (default {DEFAULT_METHOD})")
     sim.add_argument("--rtol", type=str, default="1e-9", help="relative tolerance (default 1e-9)")
     sim.add_argument("--atol", type=str, default="1e-9", help="absolute tolerance (default 1e-9)")
     sim.add_argument("--alpha", type=str, help="Baumgarte alpha of (15) (default 5)")
@@ -115,16 +117,20 @@ def _add_benchmark_parser(commands):
     bench.add_argument("--figures", metavar="DIR", help="write the figures (PNG) into DIR, created if needed")
 
 
-def _number(name, text):
+def _number(name, text, **bounds):
+    """The number written in ``text`` (None stays None), checked by :func:`~closedloop.validation.finite_number`."""
     if text is None:
         return None
     try:
         value = float(text)
     except ValueError:
         raise InputError(f"{name}: expected a number, got {text!r}") from None
-    if not math.isfinite(value):
-        raise InputError(f"{name}: must be finite, got {text!r}")
-    return value
+    return finite_number(name, value, **bounds)
+
+
+def _positive(name, text, unit=None):
+    """A number > 0 written in ``text``."""
+    return _number(name, text, minimum=0.0, strict=True, unit=unit)
 
 
 def _initial_condition(args):
@@ -136,7 +142,7 @@ def _initial_condition(args):
         try:
             number = int(args.case)
         except ValueError:
-            raise InputError(f"case: unknown {args.case!r}; choose 1, 2, 3 or 4") from None
+            number = args.case                 # refused by get_case, with the choices
         case = get_case(number)
         return number, case.phi0, case.dphi0
     if args.phi0 is None or args.dphi0 is None:
@@ -147,19 +153,13 @@ def _initial_condition(args):
 def run_simulate(args):
     """Carry out ``closedloop simulate``; returns the JSON-ready summary."""
     from .formulations import formulation_from_name
-    from .simulation import SOLVER_METHODS, simulate
+    from .simulation import simulate
     from .slider_crank import classify_motion, get_reading, initial_state, slider_crank_system
 
     case, phi0, dphi0 = _initial_condition(args)
-    t_end = _number("t_end", args.t_end)
-    if t_end <= 0:
-        raise InputError(f"t_end: must be > 0 s, got {args.t_end}")
-    rtol, atol = _number("rtol", args.rtol), _number("atol", args.atol)
-    for name, value in (("rtol", rtol), ("atol", atol)):
-        if value <= 0:
-            raise InputError(f"{name}: must be > 0, got {value:g}")
-    if args.method not in SOLVER_METHODS:
-        raise InputError(f"method: unknown {args.method!r}; choose one of {', '.join(SOLVER_METHODS)}")
+    t_end = _positive("t_end", args.t_end, unit="s")
+    rtol, atol = _positive("rtol", args.rtol), _positive("atol", args.atol)
+    one_of("method", args.method, SOLVER_METHODS)
     formulation = formulation_from_name(args.formulation, _number("alpha", args.alpha), _number("beta", args.beta))
     reading = get_reading(args.reading)
     if args.plot is not None and not args.plot.lower().endswith(".png"):
@@ -241,12 +241,8 @@ def run_basin(args, progress=None):
         raise InputError(f"dphi0: START must be >= 0 rad/s, got {args.dphi0!r}")
     if n * m > 1_000_000:
         raise InputError(f"phi0, dphi0: at most 1 000 000 cells, got {n} x {m}")
-    t_end = _number("t_end", args.t_end)
-    if t_end <= 0:
-        raise InputError(f"t_end: must be > 0 s, got {args.t_end}")
-    step = DEFAULT_STEP if args.step is None else _number("step", args.step)
-    if step <= 0 or step > t_end:
-        raise InputError(f"step: must be > 0 s and <= t_end, got {args.step}")
+    t_end = _positive("t_end", args.t_end, unit="s")
+    step = DEFAULT_STEP if args.step is None else _positive("step", args.step, unit="s")   # basin_map: step <= t_end
     cores = os.cpu_count() or 1
     if args.workers is None:
         workers = cores if n * m >= 1000 else 1
@@ -254,9 +250,8 @@ def run_basin(args, progress=None):
         try:
             workers = int(args.workers)
         except ValueError:
-            raise InputError(f"workers: must be an integer >= 1, got {args.workers!r}") from None
-        if workers < 1:
-            raise InputError(f"workers: must be an integer >= 1, got {workers}")
+            workers = args.workers             # refused below, with the range
+        positive_integer("workers", workers)
     if args.png is not None and not args.png.lower().endswith(".png"):
         raise InputError(f"png: the figure is written as PNG; give a file name ending in .png, got {args.png!r}")
     basin = basin_map(grid_values(phi_start, phi_stop, n), grid_values(dphi_start, dphi_stop, m), t_end,

@@ -14,13 +14,13 @@ The roots scale with the step: ``mu dt`` depends on ``(alpha dt, beta dt)`` alon
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import brentq
 
 from .errors import InputError, IntegrationError
+from .validation import positive_integer, positive_number
 
 __all__ = [
     "rk4",
@@ -151,10 +151,8 @@ def rk4(system, formulation, s0, sd0, step, n_steps, t_start=0.0, divergence=1e6
     if system.force is not None and system.force.switch_names:
         raise InputError("system: rk4 does not stop at switches; use a system without switched forces "
                          "(e.g. slider_crank_system(gas=False)) or simulate()")
-    if not (isinstance(step, (int, float, np.floating)) and math.isfinite(step) and step > 0):
-        raise InputError(f"step: must be a finite number > 0, got {step!r}")
-    if not (isinstance(n_steps, (int, np.integer)) and n_steps >= 1):
-        raise InputError(f"n_steps: must be an integer >= 1, got {n_steps!r}")
+    positive_number("step", step, unit="s")
+    positive_integer("n_steps", n_steps)
     s0 = np.asarray(s0, dtype=float)
     sd0 = np.asarray(sd0, dtype=float)
     unpack = formulation.unpacker(system)

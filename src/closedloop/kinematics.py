@@ -9,14 +9,62 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import ConvergenceError, InputError, SingularConfigurationError, at_time
-from .linalg import orthogonal_complement, solve_small
+from .errors import ConvergenceError, SingularConfigurationError, at_time
+from .linalg import orthogonal_complement, solve_many, solve_small
+from .validation import finite_array
 
-__all__ = ["solve_dependent", "dependent_velocities", "consistent_initial_state", "InitialState"]
+__all__ = ["solve_dependent", "solve_dependent_many", "newton_on_constraints", "dependent_velocities",
+           "consistent_initial_state", "InitialState", "NEWTON_TOLERANCE", "NEWTON_MAX_ITERATIONS"]
 
 #: Newton stops when |f| (or its step) is below this, relative to 1 + |s| (or 1 + |z|).
 NEWTON_TOLERANCE = 1e-15
 NEWTON_MAX_ITERATIONS = 25
+
+
+def newton_on_constraints(evaluate, correct, s, tolerance=NEWTON_TOLERANCE, max_iterations=NEWTON_MAX_ITERATIONS):
+    """Newton's method on the constraints f(s) = 0 (6), for one state or for K states at once.
+
+    The one Newton loop of the library: :func:`solve_dependent` (z from q),
+    :func:`solve_dependent_many` (the same for a batch) and
+    :func:`closedloop.formulations.project_state` (the minimum-norm correction
+    of all coordinates) differ only in ``evaluate`` and ``correct``.
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(s) -> (f, Phi_s)`` of (6) and (9).
+    correct : callable
+        ``correct(s, f, Phi) -> step``: changes ``s`` in place by one Newton
+        correction and returns ``(moved, entries)``, the step of the corrected
+        entries and their new values (for the step test), or None when only the
+        residual test applies.
+    s : ndarray, shape (n,) or (n, K)
+        The starting state(s); changed in place.  With K columns every
+        reduction runs down the columns and all of them must pass.
+    tolerance : float
+        Newton stops when ``max |f| <= tolerance (1 + max |s|)`` (|s| at the
+        start), or when a step is below ``tolerance (1 + max |entries|)``.
+    max_iterations : int
+
+    Returns
+    -------
+    (s, Phi) : tuple of ndarray, or None
+        The converged state and Phi_s there, or None if Newton did not converge
+        (or left the finite numbers): the caller names the failure.
+    """
+    f_tolerance = tolerance * (1.0 + np.abs(s).max(axis=0))
+    for _ in range(max_iterations):
+        f, Phi = evaluate(s)
+        if np.all(np.abs(f).max(axis=0) <= f_tolerance):
+            return s, Phi
+        step = correct(s, f, Phi)
+        if not np.all(np.isfinite(s)):
+            break
+        if step is not None:
+            moved, entries = step
+            if np.all(np.abs(moved).max(axis=0) <= tolerance * (1.0 + np.abs(entries).max(axis=0))):
+                return s, evaluate(s)[1]
+    return None
 
 
 def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
@@ -57,14 +105,10 @@ def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
     s[system.q_index] = q
     s[system.z_index] = z_guess
     zi = system.z_index
-    f_tolerance = tolerance * (1.0 + np.abs(s).max())
-    for _ in range(max_iterations):
-        f, Phi = system.constraints_and_jacobian(s)
-        if np.abs(f).max() <= f_tolerance:
-            return (s, Phi) if return_jacobian else s
-        Phi_z = Phi[:, zi]
+
+    def correct(s, f, Phi):                   # z <- z - Phi_z^{-1} f
         try:
-            step = solve_small(Phi_z, f)
+            step = solve_small(Phi[:, zi], f)
         except np.linalg.LinAlgError:
             raise SingularConfigurationError(
                 f"Phi_z is singular{at_time(t)} at s = {np.array2string(s, precision=6)}: "
@@ -72,16 +116,58 @@ def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
                 "start from another guess of z or choose other independent coordinates"
             ) from None
         s[zi] -= step
-        if not np.all(np.isfinite(s)):
-            break
-        if np.abs(step).max() <= tolerance * (1.0 + np.abs(s[zi]).max()):
-            return (s, system.jacobian(s)) if return_jacobian else s
+        return step, s[zi]
+
+    solution = newton_on_constraints(system.constraints_and_jacobian, correct, s, tolerance, max_iterations)
+    if solution is not None:
+        return solution if return_jacobian else solution[0]
     residual = np.linalg.norm(system.constraints(s)) if np.all(np.isfinite(s)) else np.inf
     raise ConvergenceError(
         f"Newton on f(q, z) = 0 did not converge in {max_iterations} iterations{at_time(t)} "
         f"(q = {np.array2string(np.asarray(q), precision=6)}, |f| = {residual:.3g}): the mechanism "
         "may not assemble at this q, or the guess of z is on no branch"
     )
+
+
+def solve_dependent_many(system, q, z_guess, tolerance=NEWTON_TOLERANCE, max_iterations=NEWTON_MAX_ITERATIONS):
+    """:func:`solve_dependent` at K states at once: ``f(q_j, z_j) = 0`` (6) for every column j.
+
+    Parameters
+    ----------
+    system : System
+    q : ndarray, shape (f, K) (or (K,) when f = 1)
+    z_guess : ndarray, shape (r, K)
+
+    Returns
+    -------
+    s : ndarray, shape (n, K)
+    Phi : ndarray, shape (r, n, K)
+        Phi_s of (9) at the solutions.
+
+    Raises
+    ------
+    ConvergenceError
+        If Newton does not converge at every column.
+    SingularConfigurationError
+        If Phi_z is singular at some column on the way.
+    """
+    zi = system.z_index
+    s = np.empty((system.n, np.shape(z_guess)[-1]))
+    s[system.q_index] = q
+    s[zi] = z_guess
+
+    def correct(s, f, Phi):
+        step = solve_many(Phi[:, zi], f)
+        s[zi] -= step
+        return step, s[zi]
+
+    solution = newton_on_constraints(system.constraints_and_jacobian_many, correct, s, tolerance, max_iterations)
+    if solution is None:
+        raise ConvergenceError(
+            f"Newton on f(q, z) = 0 did not converge in {max_iterations} iterations for some "
+            "cells of the batch: the mechanism may not assemble there"
+        )
+    return solution
 
 
 def dependent_velocities(system, s, qd, t=None):
@@ -123,13 +209,8 @@ def consistent_initial_state(system, q0, qd0, z_guess):
     -------
     InitialState
     """
-    q0 = np.atleast_1d(np.asarray(q0, dtype=float))
-    qd0 = np.atleast_1d(np.asarray(qd0, dtype=float))
-    z_guess = np.atleast_1d(np.asarray(z_guess, dtype=float))
-    for name, value, size in (("q0", q0, system.f), ("qd0", qd0, system.f), ("z_guess", z_guess, system.r)):
-        if value.shape != (size,):
-            raise InputError(f"{name}: need {size} values, got {value.size}")
-        if not np.all(np.isfinite(value)):
-            raise InputError(f"{name}: must be finite, got {value}")
+    q0 = finite_array("q0", q0, size=system.f)
+    qd0 = finite_array("qd0", qd0, size=system.f)
+    z_guess = finite_array("z_guess", z_guess, size=system.r)
     s = solve_dependent(system, q0, z_guess)
     return InitialState(s, dependent_velocities(system, s, qd0))

@@ -15,7 +15,8 @@ from scipy.linalg import qr
 from .errors import SingularConfigurationError, at_time
 
 __all__ = ["solve_augmented", "solve_small", "solve_many", "condition_number", "orthogonal_complement",
-           "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT", "NULL_SPACE_BASES"]
+           "orthogonal_complement_many", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
+           "NULL_SPACE_BASES"]
 
 
 def solve_augmented(M, Phi, p1, p2, t=None):
@@ -134,6 +135,34 @@ def solve_many(A, b):
             "Phi_z is singular at some cells of the batch: R of (20) does not exist there"
         )
     return x
+
+
+def orthogonal_complement_many(Phi, q_index, z_index):
+    """R of (20) at K states at once: ``R[z] = -Phi_z^{-1} Phi_q``, ``R[q] = E``, in the order of s.
+
+    Parameters
+    ----------
+    Phi : ndarray, shape (r, n, K)
+        Phi_s of (9) at K states.
+    q_index, z_index : ndarray of int
+        Positions of q and z in s.
+
+    Returns
+    -------
+    R : ndarray, shape (n, f, K)
+
+    Raises
+    ------
+    SingularConfigurationError
+        If Phi_z is singular at some state (see :func:`solve_many`).  Unlike
+        :func:`orthogonal_complement`, no condition limit is applied.
+    """
+    Phi_z = Phi[:, z_index]
+    R = np.zeros((Phi.shape[1], len(q_index), Phi.shape[2]))
+    for column, coordinate in enumerate(q_index):
+        R[coordinate, column] = 1.0
+        R[z_index, column] = -solve_many(Phi_z, Phi[:, coordinate])
+    return R
 
 
 #: sigma_min(Phi_s) / sigma_max(Phi_s) below which Phi_s counts as rank deficient.

@@ -15,18 +15,47 @@ and is cached; every numeric call afterwards is plain numpy.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numpy as np
 import sympy as sp
 
-from .errors import InputError, SingularConfigurationError, at_time
+from .errors import InputError
 from .linalg import CONDITION_LIMIT, condition_number, orthogonal_complement, solve_augmented
+from .validation import finite_number
 
-__all__ = ["MultibodyModel", "DerivedModel", "derive", "System", "array_functions", "condition_number", "CONDITION_LIMIT"]
+__all__ = ["MultibodyModel", "DerivedModel", "derive", "System", "Dynamics", "array_functions", "condition_number",
+           "CONDITION_LIMIT"]
+
+
+class Dynamics(NamedTuple):
+    """The terms of Lagrange's equations with multipliers (8)-(11) at one state (or at K states).
+
+    A tuple, so ``M, p1, constraint_values, Phi, gamma = system.dynamics(...)``
+    unpacks it; the names keep the constraint vector f of (6) apart from
+    ``System.f``, the number of degrees of freedom.
+
+    Attributes
+    ----------
+    mass_matrix : ndarray, shape (n, n)
+        M(s) of (8).
+    p1 : ndarray, shape (n,)
+        ``tau - C s' - g`` of (7), the switched force included.
+    constraints : ndarray, shape (r,)
+        f(s) of (6).
+    jacobian : ndarray, shape (r, n)
+        Phi_s of (9).
+    jacobian_rate_product : ndarray, shape (r,)
+        ``Phi_s' s'`` of (10)-(11).
+    """
+
+    mass_matrix: np.ndarray
+    p1: np.ndarray
+    constraints: np.ndarray
+    jacobian: np.ndarray
+    jacobian_rate_product: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -267,10 +296,8 @@ class System:
         missing = [str(p) for p in model.parameters if str(p) not in by_name]
         if missing:
             raise InputError(f"parameter_values: missing values for {missing}")
-        values = np.array([float(by_name[str(p)]) for p in model.parameters], dtype=float)
-        bad = [str(p) for p, v in zip(model.parameters, values) if not np.isfinite(v)]
-        if bad:
-            raise InputError(f"parameter_values: {bad} must be finite numbers")
+        values = np.array([finite_number(f"parameter_values[{str(p)!r}]", by_name[str(p)])
+                           for p in model.parameters], dtype=float)
         self.model = model
         self.derived = derive(model)
         self.parameter_values = values
@@ -287,7 +314,9 @@ class System:
 
     # -- numeric building blocks ------------------------------------------------
     def dynamics(self, t, s, sd, mode=None):
-        """``(M, p1, f, Phi_s, Phi_s' s')`` at one state, p1 including the switched force.
+        """``(M, p1, f, Phi_s, Phi_s' s')`` of (7)-(11) at one state, p1 including the switched force.
+
+        Returns a :class:`Dynamics`, a named tuple of these five.
 
         Parameters
         ----------
@@ -301,14 +330,14 @@ class System:
         values = np.array(self.derived.dynamics(float(t), s.tolist(), sd.tolist(), self._parameter_list))
         M = values[: n * n].reshape(n, n)
         p1 = values[n * n: n * n + n]
-        f = values[n * n + n: n * n + n + r]
+        constraint_values = values[n * n + n: n * n + n + r]
         Phi = values[n * n + n + r: n * n + n + r + r * n].reshape(r, n)
         gamma = values[n * n + n + r + r * n:]
         if self.force is not None:
             if mode is None:
                 mode = self.force.mode_at(t, s, sd)
             p1 = p1 + self.force(t, s, sd, mode)
-        return M, p1, f, Phi, gamma
+        return Dynamics(M, p1, constraint_values, Phi, gamma)
 
     def applied_forces(self, t, s, sd, mode=None):
         """tau of (5) at one state: the non-conservative generalised forces, shape (n,).
@@ -341,20 +370,18 @@ class System:
 
         Returns
         -------
-        M : ndarray, shape (n, n, K)
-        p1 : ndarray, shape (n, K)
-            The smooth forces only: add ``system.force.many(...)`` for the switched one.
-        f : ndarray, shape (r, K)
-        Phi : ndarray, shape (r, n, K)
-        gamma : ndarray, shape (r, K)
+        Dynamics
+            Its fields with a last axis of length K: M (n, n, K); p1 (n, K), the
+            smooth forces only (add ``system.force.many(...)`` for the switched
+            one); f (r, K); Phi_s (r, n, K); Phi_s' s' (r, K).
         """
         n, r = self.n, self.r
         size = s.shape[1]
         dynamics = array_functions(self.model)[0]
         values = _stack(dynamics(t, list(s), list(sd), self._parameter_list), size)
         split = np.cumsum([n * n, n, r, r * n])
-        M, p1, f, Phi, gamma = np.split(values, split)
-        return M.reshape(n, n, size), p1, f, Phi.reshape(r, n, size), gamma
+        M, p1, constraint_values, Phi, gamma = np.split(values, split)
+        return Dynamics(M.reshape(n, n, size), p1, constraint_values, Phi.reshape(r, n, size), gamma)
 
     def constraints_and_jacobian_many(self, s):
         """``(f, Phi_s)`` of (6) and (9) at K configurations: shapes (r, K) and (r, n, K)."""
@@ -409,7 +436,7 @@ class System:
             Right-hand side of the constraint rows; ``-Phi_s' s'`` of (11) when
             omitted, Baumgarte's p2~ of (17) when given.
         """
-        M, p1, f, Phi, gamma = self.dynamics(t, s, sd, mode)
+        M, p1, _, Phi, gamma = self.dynamics(t, s, sd, mode)
         rhs2 = -gamma if p2 is None else p2
         return solve_augmented(M, Phi, p1, rhs2, t)
 

@@ -22,10 +22,12 @@ from functools import lru_cache
 import numpy as np
 import sympy as sp
 
+from . import gas_law
 from .errors import InputError
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
 from .model import MultibodyModel, System
+from .validation import finite_number, instance_of, one_of
 
 __all__ = [
     "SliderCrankParameters",
@@ -99,13 +101,8 @@ class SliderCrankParameters:
         for item in fields(self):
             if item.name == "full_rotation":
                 continue
-            value = getattr(self, item.name)
-            if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
-                raise InputError(f"{item.name}: must be a finite number [{units[item.name]}], got {value!r}")
-            allow_zero = item.name in ("a1", "a2", "g")
-            if value < 0 or (value == 0 and not allow_zero):
-                bound = ">= 0" if allow_zero else "> 0"
-                raise InputError(f"{item.name}: must be {bound} [{units[item.name]}], got {value!r}")
+            finite_number(item.name, getattr(self, item.name), minimum=0.0,
+                          strict=item.name not in ("a1", "a2", "g"), unit=units[item.name])
         if self.full_rotation and self.l1 >= self.l2:
             raise InputError(
                 f"l1: must be < l2 = {self.l2:g} m, got {self.l1:g} m: with l1 >= l2 the crank cannot "
@@ -154,8 +151,9 @@ class Reading:
 
     @property
     def gas_coefficients(self):
-        """``(282.857, 62.857, 110.000)`` of the gas force, scaled by the reading."""
-        return tuple(c * self.scale for c in (282.857, 62.857, 110.000))
+        """``(282.857, 62.857, 110.000)`` of the gas force (:data:`closedloop.gas_law.PRINTED_COEFFICIENTS`),
+        scaled by the reading."""
+        return tuple(c * self.scale for c in gas_law.PRINTED_COEFFICIENTS)
 
 
 READINGS = {
@@ -179,9 +177,7 @@ def get_reading(name):
     """The :class:`Reading` called ``name``, or a clear error."""
     if isinstance(name, Reading):
         return name
-    if name not in READINGS:
-        raise InputError(f"reading: unknown {name!r}; choose one of {', '.join(READINGS)}")
-    return READINGS[name]
+    return READINGS[one_of("reading", name, READINGS)]
 
 
 OMEGA = 2.0 * math.pi          # rad/s, the torque's ripple frequency
@@ -203,16 +199,14 @@ def gas_force(x, xdot, reading=DEFAULT_READING):
     ``-110 [1 - sin 2 pi (x - 5.25)]`` on 5 <= x <= 5.5; zero for x_C' <= 0 and
     outside the stroke [1.5, 5.5].  The coefficients scale with the reading.
     The sign here is the printed one (F <= 0); how F enters the equations is
-    the reading's ``force_sign``.
+    the reading's ``force_sign``.  The law is that of :mod:`closedloop.gas_law`.
     """
     reading = get_reading(reading)
-    a, b, c = reading.gas_coefficients
     x = np.asarray(x, dtype=float)
     xdot = np.asarray(xdot, dtype=float)
-    inner = -a / (6.0 - np.minimum(x, 5.0)) + b
-    outer = -c * (1.0 - np.sin(2.0 * np.pi * (x - 5.25)))
-    value = np.where(x <= 5.0, inner, outer)
-    value = np.where((xdot > 0) & (x >= 1.5) & (x <= 5.5), value, 0.0)
+    low, high = gas_law.STROKE
+    value = gas_law.law_many(x, x > gas_law.CHANGE_POINT, reading.gas_coefficients)
+    value = np.where((xdot > 0) & (x >= low) & (x <= high), value, 0.0)
     return value if value.ndim else float(value)
 
 
@@ -221,6 +215,8 @@ class GasForce(SwitchedForce):
 
     Switches: ``x_C' = 0`` (the force acts only while the slider moves
     outward; the slider may stick there) and ``x_C = 5`` (the formula changes).
+    Every form of the force here (one state, K states, sympy) comes from the
+    expressions of :mod:`closedloop.gas_law`.
     """
 
     switch_names = ("x_C' = 0", "x_C = 5")
@@ -230,9 +226,10 @@ class GasForce(SwitchedForce):
         self.reading = get_reading(reading)
         self._a, self._b, self._c = self.reading.gas_coefficients
         self._sign = float(self.reading.force_sign)
+        self._inner, self._outer = gas_law.numeric_branches("math")
 
     def switching_functions(self, t, s, sd):
-        return np.array([sd[2], s[2] - 5.0])
+        return np.array([sd[2], s[2] - gas_law.CHANGE_POINT])
 
     def __call__(self, t, s, sd, mode):
         return np.array(self.components(t, s, sd, mode))
@@ -242,15 +239,14 @@ class GasForce(SwitchedForce):
         moving_out, beyond_five = mode
         x = float(s[2])
         value = 0.0
-        if moving_out and 1.5 <= x <= 5.5:
-            if beyond_five:
-                value = -self._c * (1.0 - math.sin(2.0 * math.pi * (x - 5.25)))
-            else:
-                value = -self._a / (6.0 - x) + self._b
+        low, high = gas_law.STROKE
+        if moving_out and low <= x <= high:
+            branch = self._outer if beyond_five else self._inner
+            value = branch(x, self._a, self._b, self._c, gas_law.WAVENUMBER)
         return [0.0, 0.0, self._sign * value]
 
     def switching_functions_many(self, t, s, sd):
-        return np.array([sd[2], s[2] - 5.0])
+        return np.array([sd[2], s[2] - gas_law.CHANGE_POINT])
 
     def expressions(self, mode, time, coordinates, velocities):
         """The force of :meth:`components` on branch ``mode`` as sympy expressions ``[0, 0, F]``."""
@@ -258,21 +254,18 @@ class GasForce(SwitchedForce):
         if not moving_out:
             return [0, 0, 0]
         x = coordinates[2]
-        if beyond_five:
-            formula = -sp.Float(self._c) * (1 - sp.sin(2 * sp.pi * (x - sp.Float(5.25))))
-        else:
-            formula = -sp.Float(self._a) / (6 - x) + sp.Float(self._b)
-        value = sp.Piecewise((sp.Float(self._sign) * formula, (x >= 1.5) & (x <= 5.5)), (0, True))
+        formula = gas_law.branch_expression(beyond_five, x, (self._a, self._b, self._c))
+        low, high = gas_law.STROKE
+        value = sp.Piecewise((sp.Float(self._sign) * formula, (x >= low) & (x <= high)), (0, True))
         return [0, 0, value]
 
     def many(self, t, s, sd, mode):
         """The force at K states at once, each on its own branch ``mode[:, j]`` (same formula as a call)."""
         moving_out, beyond_five = mode
         x = s[2]
-        stroke = moving_out & (x >= 1.5) & (x <= 5.5)
-        inner = -self._a / np.where(stroke, 6.0 - x, 1.0) + self._b
-        outer = -self._c * (1.0 - np.sin(2.0 * np.pi * (x - 5.25)))
-        value = np.where(stroke, np.where(beyond_five, outer, inner), 0.0)
+        low, high = gas_law.STROKE
+        stroke = moving_out & (x >= low) & (x <= high)
+        value = np.where(stroke, gas_law.law_many(x, beyond_five, (self._a, self._b, self._c)), 0.0)
         out = np.zeros(s.shape)
         out[2] = self._sign * value
         return out
@@ -316,9 +309,8 @@ def slider_crank_system(parameters=None, reading=DEFAULT_READING, torque=True, g
     torque, gas : bool, optional
         Switch the drive torque or the gas force off (for energy checks).
     """
-    parameters = SliderCrankParameters() if parameters is None else parameters
-    if not isinstance(parameters, SliderCrankParameters):
-        raise InputError("parameters: expected a SliderCrankParameters")
+    parameters = instance_of("parameters", SliderCrankParameters() if parameters is None else parameters,
+                             SliderCrankParameters)
     reading = get_reading(reading)
     values = parameters.as_dict()
     values.update(torque_mean=reading.torque_mean if torque else 0.0,
@@ -356,9 +348,7 @@ CASES = {
 
 def get_case(number):
     """The :class:`Case` numbered ``number`` (1-4), or a clear error."""
-    if number not in CASES:
-        raise InputError(f"case: unknown {number!r}; choose 1, 2, 3 or 4")
-    return CASES[number]
+    return CASES[one_of("case", number, CASES)]
 
 
 def initial_state(system, phi0, dphi0) -> InitialState:
@@ -368,9 +358,8 @@ def initial_state(system, phi0, dphi0) -> InitialState:
     right of the crank (psi near pi; at phi0 = pi the slider is at the inner
     dead centre x_C = l2 - l1), then psi'(0), x_C'(0) follow from (9).
     """
-    for name, value in (("phi0", phi0), ("dphi0", dphi0)):
-        if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value)):
-            raise InputError(f"phi0, dphi0: {name} must be a finite number, got {value!r}")
+    phi0 = finite_number("phi0", phi0, unit="rad")
+    dphi0 = finite_number("dphi0", dphi0, unit="rad/s")
     p = system.parameters
     if abs(p.l1 * math.sin(phi0)) > p.l2:
         raise InputError(

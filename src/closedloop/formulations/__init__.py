@@ -21,6 +21,7 @@ A new formulation is one module of this package and one line of :data:`REGISTRY`
 from __future__ import annotations
 
 from ..errors import InputError
+from ..validation import one_of
 from .base import Formulation, StateUnpacker
 from .closed_form import ClosedForm
 from .minimal import Minimal
@@ -53,9 +54,7 @@ def formulation_from_name(name, alpha=None, beta=None):
     alpha, beta : float, optional
         Only for the formulations that take gains (default 5 and 5, Baumgarte's choice).
     """
-    if name not in REGISTRY:
-        raise InputError(f"formulation: unknown {name!r}; choose one of {', '.join(FORMULATION_NAMES)}")
-    cls = REGISTRY[name]
+    cls = REGISTRY[one_of("formulation", name, FORMULATION_NAMES)]
     gains = {k: v for k, v in (("alpha", alpha), ("beta", beta)) if v is not None}
     if gains and not _takes_gains(cls):
         takers = ", ".join(n for n, c in REGISTRY.items() if _takes_gains(c))

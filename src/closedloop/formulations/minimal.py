@@ -8,10 +8,49 @@ import numpy as np
 
 from ..errors import ConvergenceError, SingularConfigurationError, at_time
 from ..kinematics import solve_dependent
-from ..linalg import condition_number, orthogonal_complement, solve_small
+from ..linalg import condition_number, orthogonal_complement, solve_many, solve_small
 from .base import Formulation
 
-__all__ = ["Minimal", "CONTINUATION_PIECES", "CONTINUATION_STEP"]
+__all__ = ["Minimal", "MinimalUnpacker", "minimal_accelerations", "CONTINUATION_PIECES", "CONTINUATION_STEP"]
+
+
+def minimal_accelerations(M, p1, Phi, gamma, R, z_index):
+    """The minimal-coordinate ODE ``(R^T M R) q'' = R^T (p1 - M c)``, ``c_z = -Phi_z^{-1} Phi_s' s'``.
+
+    With ``s' = R q'`` (20), ``s'' = R q'' + c`` where c of (10) has ``c_q = 0``;
+    projecting (8) onto R (the orthogonality theorem (18)) removes lambda.
+    Written once for :class:`Minimal` (one state) and the basin map's batch
+    integrator (K states, :mod:`closedloop.studies.basin`).
+
+    Parameters
+    ----------
+    M, p1, Phi, gamma : ndarray
+        M, p1, Phi_s and Phi_s' s' of (7)-(11): shapes (n, n), (n,), (r, n), (r,)
+        at one state, or the same with a last axis of length K.
+    R : ndarray, shape (n, f) or (n, f, K)
+        R of (20).
+    z_index : ndarray of int
+
+    Returns
+    -------
+    qdd : ndarray, shape (f,) or (f, K)
+    c : ndarray, shape (n,) or (n, K)
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError or SingularConfigurationError
+        If Phi_z (or R^T M R) is singular.
+    """
+    batch = M.ndim == 3
+    solve = solve_many if batch else solve_small
+    c = np.zeros(p1.shape)
+    c[z_index] = solve(Phi[:, z_index], -gamma)                       # from (10)
+    if batch:                                                           # the same products, column by column
+        reduced_mass = np.einsum("ilk,ijk,jmk->lmk", R, M, R)
+        reduced_force = np.einsum("ilk,ik->lk", R, p1 - np.einsum("ijk,jk->ik", M, c))
+    else:
+        reduced_mass, reduced_force = R.T @ M @ R, R.T @ (p1 - M @ c)
+    return solve(reduced_mass, reduced_force), c
 
 
 @dataclass(frozen=True)
@@ -45,96 +84,8 @@ class Minimal(Formulation):
         return np.concatenate((s[system.q_index], sd[system.q_index]))
 
     def unpacker(self, system):
-        """A function ``y -> (s, s')`` that solves f(q, z) = 0 for z by Newton.
-
-        It keeps the last solution (local to one integration segment): Newton
-        starts from the first-order prediction ``z + R_z (q - q_last)``, and a
-        call at the same y as the last one (an event function evaluated where
-        the right-hand side just was) costs nothing.
-        """
-        f, qi, zi = system.f, system.q_index, system.z_index
-        last = {"y": None, "s": None, "R": None, "side": None}
-
-        def solve(q, s_from, R_from, t):
-            guess = s_from[zi] if R_from is None else s_from[zi] + R_from[zi] @ (q - s_from[qi])
-            s, Phi = solve_dependent(system, q, guess, t, return_jacobian=True)
-            return s, Phi, np.sign(np.linalg.det(Phi[:, zi]))
-
-        def solve_on_branch(q, t):
-            # One Newton solve from the first-order prediction.  A long step (a fast crank) can
-            # carry that prediction into the basin of another assembly branch although Phi_z is
-            # well conditioned all the way; then follow q from the last solution in small steps
-            # (continuation).  A real dead position of q is crossed by every path, so the caller's
-            # branch check still catches it.
-            try:
-                found = solve(q, last["s"], last["R"], t)
-                if found[2] == last["side"]:
-                    return found
-            except (ConvergenceError, SingularConfigurationError):
-                if last["R"] is None:
-                    raise
-                found = None
-            for pieces in CONTINUATION_PIECES:
-                try:
-                    found = follow(q, pieces, t)
-                except (ConvergenceError, SingularConfigurationError):
-                    continue
-                if found[2] == last["side"]:
-                    return found
-            if found is None:
-                return solve(q, last["s"], last["R"], t)  # raises the direct solve's error
-            return found
-
-        def follow(q, pieces, t):
-            s_now, R_now = last["s"], last["R"]
-            for k in range(pieces):
-                q_k = s_now[qi] + (q - s_now[qi]) / (pieces - k)
-                s_now, Phi, side = solve(q_k, s_now, R_now, t)
-                R_now = orthogonal_complement(Phi, qi, zi, t)
-            return s_now, Phi, side
-
-        def unpack(y, t=None):
-            s, R = unpack_with_R(y, t)
-            return s, R @ y[f:]
-
-        def unpack_with_R(y, t=None):
-            if last["y"] is not None and np.array_equal(y, last["y"]):
-                return last["s"], last["R"]
-            try:
-                s, Phi, side = solve_on_branch(y[:f], t)
-            except (ConvergenceError, SingularConfigurationError) as error:
-                raise SingularConfigurationError(
-                    f"minimal coordinates failed{at_time(t)}: {error} [cond(Phi_z) was "
-                    f"{condition_number(system.jacobian(last['s'])[:, zi]):.3g} at the last solved state]; "
-                    "q can not pass a dead position of this partition: use the NullSpace formulation"
-                ) from None
-            R = orthogonal_complement(Phi, qi, zi, t)
-            if side != last["side"]:
-                condition = condition_number(system.jacobian(last["s"])[:, zi])
-                moved = np.abs(y[:f] - last["s"][qi]).max()
-                if moved / CONTINUATION_PIECES[-1] <= CONTINUATION_STEP:
-                    why = ("so the path met a dead position of q, or Newton's z jumped to another branch near one; "
-                           "q alone can not pass it: use the NullSpace formulation (near a bifurcation, also "
-                           "tighten rtol and atol)")
-                else:
-                    why = (f"but a step moved q by {moved:.3g}, too far for Newton to follow z even in "
-                           f"{CONTINUATION_PIECES[-1]} pieces, so the motion is too fast for the step; give a "
-                           "max_step, or use a formulation that does not solve for z (Orthogonal, NullSpace)")
-                raise SingularConfigurationError(
-                    f"minimal coordinates left their assembly branch{at_time(t)}: det(Phi_z) changed sign "
-                    f"(cond(Phi_z) was {condition:.3g} at the last state on the branch), {why}"
-                )
-            last.update(y=y.copy(), s=s, R=R)
-            return s, R
-
-        def seed(s_start):
-            s_start = np.array(s_start, dtype=float)
-            last.update(y=None, s=s_start, R=None,
-                        side=np.sign(np.linalg.det(system.jacobian(s_start)[:, zi])))
-
-        unpack.seed = seed
-        unpack.with_R = unpack_with_R
-        return unpack
+        """A new :class:`MinimalUnpacker`: ``y -> (s, s')`` that solves f(q, z) = 0 for z by Newton."""
+        return MinimalUnpacker(system)
 
     def make_rhs(self, system, mode, unpack):
         f = system.f
@@ -148,12 +99,9 @@ class Minimal(Formulation):
 
     def _qdd(self, system, t, s, sd, mode, R=None):
         M, p1, _, Phi, gamma = system.dynamics(t, s, sd, mode)
-        zi = system.z_index
         if R is None:
-            R = orthogonal_complement(Phi, system.q_index, zi, t)
-        c = np.zeros(system.n)
-        c[zi] = solve_small(Phi[:, zi], -gamma)
-        qdd = solve_small(R.T @ M @ R, R.T @ (p1 - M @ c))
+            R = orthogonal_complement(Phi, system.q_index, system.z_index, t)
+        qdd, c = minimal_accelerations(M, p1, Phi, gamma, R, system.z_index)
         return qdd, R, c
 
     def accelerations(self, system, t, s, sd, mode=None):
@@ -162,8 +110,120 @@ class Minimal(Formulation):
         return R @ qdd + c
 
 
+class MinimalUnpacker:
+    """``y -> (s, s')`` for minimal coordinates ``y = [q, q']``: z from f(q, z) = 0 (6) by Newton, s' = R q' (20).
+
+    One per integration segment (rule 3 of :class:`~closedloop.formulations.base.Formulation`).
+    It keeps the last solution: Newton starts from the first-order prediction
+    ``z + R_z (q - q_last)``, and a call at the same y as the last one (an
+    event function evaluated where the right-hand side just was) costs nothing.
+    It stops with :class:`~closedloop.errors.SingularConfigurationError` where
+    z would leave its assembly branch (det Phi_z changes sign).
+
+    Parameters
+    ----------
+    system : System
+    """
+
+    def __init__(self, system):
+        self.system = system
+        self._last_y = None            # the last y unpacked, its s and R, and the branch's sign of det Phi_z
+        self._last_s = None
+        self._last_R = None
+        self._side = None
+
+    def __call__(self, y, t=None):
+        """``(s, s')`` at ``y``; ``t`` is only for error messages."""
+        s, R = self.with_R(y, t)
+        return s, R @ y[self.system.f:]
+
+    def seed(self, s_start):
+        """Start a segment at the consistent coordinates ``s_start``: its branch is the one to keep."""
+        s_start = np.array(s_start, dtype=float)
+        self._last_y, self._last_s, self._last_R = None, s_start, None
+        self._side = np.sign(np.linalg.det(self.system.jacobian(s_start)[:, self.system.z_index]))
+
+    def with_R(self, y, t=None):
+        """``(s, R)`` at ``y``: the coordinates and R of (20) there (for the right-hand side)."""
+        system = self.system
+        f, qi, zi = system.f, system.q_index, system.z_index
+        if self._last_y is not None and np.array_equal(y, self._last_y):
+            return self._last_s, self._last_R
+        try:
+            s, Phi, side = self._solve_on_branch(y[:f], t)
+        except (ConvergenceError, SingularConfigurationError) as error:
+            raise SingularConfigurationError(
+                f"minimal coordinates failed{at_time(t)}: {error} [cond(Phi_z) was "
+                f"{condition_number(system.jacobian(self._last_s)[:, zi]):.3g} at the last solved state]; "
+                "q can not pass a dead position of this partition: use the NullSpace formulation"
+            ) from None
+        R = orthogonal_complement(Phi, qi, zi, t)
+        if side != self._side:
+            condition = condition_number(system.jacobian(self._last_s)[:, zi])
+            moved = np.abs(y[:f] - self._last_s[qi]).max()
+            if moved / CONTINUATION_PIECES[-1] <= CONTINUATION_STEP:
+                why = ("so the path met a dead position of q, or Newton's z jumped to another branch near one; "
+                       "q alone can not pass it: use the NullSpace formulation (near a bifurcation, also "
+                       "tighten rtol and atol)")
+            else:
+                why = (f"but a step moved q by {moved:.3g}, too far for Newton to follow z even in "
+                       f"{CONTINUATION_PIECES[-1]} pieces, so the motion is too fast for the step; give a "
+                       "max_step, or use a formulation that does not solve for z (Orthogonal, NullSpace)")
+            raise SingularConfigurationError(
+                f"minimal coordinates left their assembly branch{at_time(t)}: det(Phi_z) changed sign "
+                f"(cond(Phi_z) was {condition:.3g} at the last state on the branch), {why}"
+            )
+        self._last_y, self._last_s, self._last_R = y.copy(), s, R
+        return s, R
+
+    def _solve(self, q, s_from, R_from, t):
+        """One Newton solve from the first-order prediction; ``(s, Phi, sign of det Phi_z)``."""
+        qi, zi = self.system.q_index, self.system.z_index
+        guess = s_from[zi] if R_from is None else s_from[zi] + R_from[zi] @ (q - s_from[qi])
+        s, Phi = solve_dependent(self.system, q, guess, t, return_jacobian=True)
+        return s, Phi, np.sign(np.linalg.det(Phi[:, zi]))
+
+    def _solve_on_branch(self, q, t):
+        """Newton from the prediction, else continuation in small steps of q, kept on the branch.
+
+        A long step (a fast crank) can carry the prediction into the basin of
+        another assembly branch although Phi_z is well conditioned all the way;
+        then q is followed from the last solution in small steps (continuation).
+        A real dead position of q is crossed by every path, so the branch check
+        of :meth:`with_R` still catches it.
+        """
+        try:
+            found = self._solve(q, self._last_s, self._last_R, t)
+            if found[2] == self._side:
+                return found
+        except (ConvergenceError, SingularConfigurationError):
+            if self._last_R is None:
+                raise
+            found = None
+        for pieces in CONTINUATION_PIECES:
+            try:
+                found = self._follow(q, pieces, t)
+            except (ConvergenceError, SingularConfigurationError):
+                continue
+            if found[2] == self._side:
+                return found
+        if found is None:
+            return self._solve(q, self._last_s, self._last_R, t)  # raises the direct solve's error
+        return found
+
+    def _follow(self, q, pieces, t):
+        """Continuation: from the last solution to q in ``pieces`` equal steps of q."""
+        qi, zi = self.system.q_index, self.system.z_index
+        s_now, R_now = self._last_s, self._last_R
+        for k in range(pieces):
+            q_k = s_now[qi] + (q - s_now[qi]) / (pieces - k)
+            s_now, Phi, side = self._solve(q_k, s_now, R_now, t)
+            R_now = orthogonal_complement(Phi, qi, zi, t)
+        return s_now, Phi, side
+
+
 #: Numbers of equal pieces Minimal's Newton continuation tries, in turn, when a single Newton solve
-#: from the prediction lands on another assembly branch (see Minimal.unpacker).
+#: from the prediction lands on another assembly branch (see MinimalUnpacker).
 CONTINUATION_PIECES = (8, 64)
 #: Longest piece of q (radians or metres) on which the continuation's Newton solve is trusted: a
 #: change of branch on shorter pieces is a dead position of q; on longer ones, a step too long.

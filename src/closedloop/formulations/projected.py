@@ -30,17 +30,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import DOP853, RK23, RK45
 
 from ..errors import ConvergenceError, InputError, SingularConfigurationError, at_time
-from ..kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE
+from ..kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE, newton_on_constraints
 from ..linalg import solve_small
+from ..methods import EXPLICIT_RUNGE_KUTTA_METHODS, SOLVER_CLASSES
 from .redundant import Augmented
 
 __all__ = ["Projected", "project_state", "PROJECTABLE_METHODS"]
 
 #: The solve_ivp methods whose state can be reset after a step.
-PROJECTABLE_METHODS = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853}
+PROJECTABLE_METHODS = {name: SOLVER_CLASSES[name] for name in EXPLICIT_RUNGE_KUTTA_METHODS}
 
 
 def _minimum_norm(Phi, residual, t, s):
@@ -90,15 +90,15 @@ def project_state(system, s, sd, t=None, tolerance=NEWTON_TOLERANCE, max_iterati
         If Phi_s loses rank on the way.
     """
     s = np.array(s, dtype=float)
-    f_tolerance = tolerance * (1.0 + np.abs(s).max())
-    for _ in range(max_iterations):
-        f, Phi = system.constraints_and_jacobian(s)
-        if np.abs(f).max() <= f_tolerance:
-            sd = np.asarray(sd, dtype=float)
-            return s, sd - _minimum_norm(Phi, Phi @ sd, t, s)
-        s -= _minimum_norm(Phi, f, t, s)
-        if not np.all(np.isfinite(s)):
-            break
+
+    def correct(s, constraint_values, Phi):          # s <- s - Phi^T (Phi Phi^T)^{-1} f: no step test
+        s -= _minimum_norm(Phi, constraint_values, t, s)
+
+    solution = newton_on_constraints(system.constraints_and_jacobian, correct, s, tolerance, max_iterations)
+    if solution is not None:
+        s, Phi = solution
+        sd = np.asarray(sd, dtype=float)
+        return s, sd - _minimum_norm(Phi, Phi @ sd, t, s)
     residual = np.linalg.norm(system.constraints(s)) if np.all(np.isfinite(s)) else np.inf
     raise ConvergenceError(
         f"the projection onto f = 0 did not converge in {max_iterations} Newton iterations{at_time(t)} "

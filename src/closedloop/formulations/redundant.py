@@ -15,18 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
 from ..linalg import NULL_SPACE_BASES, null_space_basis, orthogonal_complement, solve_augmented
+from ..validation import finite_number, one_of, positive_number
 from .base import Formulation
 
 __all__ = ["Augmented", "Baumgarte", "Orthogonal", "NullSpace", "baumgarte_from_step", "baumgarte_p2"]
-
-
-def _check_gains(alpha, beta):
-    for name, value in (("alpha", alpha), ("beta", beta)):
-        if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value >= 0):
-            raise InputError(f"{name}: must be a finite number >= 0, got {value!r}")
-
 
 
 def baumgarte_from_step(step):
@@ -41,8 +34,7 @@ def baumgarte_from_step(step):
     -------
     Baumgarte
     """
-    if not (isinstance(step, (int, float, np.floating)) and math.isfinite(step) and step > 0):
-        raise InputError(f"step: must be a finite number > 0, got {step!r}")
+    positive_number("step", step, unit="s")
     return Baumgarte(alpha=1.0 / step, beta=math.sqrt(2.0) / step)
 
 
@@ -58,7 +50,7 @@ class Augmented(Formulation):
 
     def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (12)."""
-        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
+        M, p1, _, Phi, gamma = system.dynamics(t, s, sd, mode)
         return solve_augmented(M, Phi, p1, -gamma, t)[0]
 
 
@@ -71,7 +63,8 @@ class _Stabilised(Formulation):
     beta: float = 5.0
 
     def __post_init__(self):
-        _check_gains(self.alpha, self.beta)
+        finite_number("alpha", self.alpha, minimum=0.0)
+        finite_number("beta", self.beta, minimum=0.0)
 
     @property
     def gains(self):
@@ -95,8 +88,9 @@ class Baumgarte(_Stabilised):
 
     def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (16) with Baumgarte's p2~ of (17)."""
-        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
-        return solve_augmented(M, Phi, p1, baumgarte_p2(Phi, gamma, f, sd, self.alpha, self.beta), t)[0]
+        M, p1, constraint_values, Phi, gamma = system.dynamics(t, s, sd, mode)
+        p2 = baumgarte_p2(Phi, gamma, constraint_values, sd, self.alpha, self.beta)
+        return solve_augmented(M, Phi, p1, p2, t)[0]
 
 
 
@@ -124,10 +118,10 @@ class Orthogonal(_Stabilised):
 
     def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (26)."""
-        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
+        M, p1, constraint_values, Phi, gamma = system.dynamics(t, s, sd, mode)
         R = orthogonal_complement(Phi, system.q_index, system.z_index, t)
         A = np.vstack((R.T @ M, Phi))                                       # (25)
-        p = np.concatenate((R.T @ p1, baumgarte_p2(Phi, gamma, f, sd, self.alpha, self.beta)))
+        p = np.concatenate((R.T @ p1, baumgarte_p2(Phi, gamma, constraint_values, sd, self.alpha, self.beta)))
         return np.linalg.solve(A, p)                                         # (26)
 
 
@@ -158,13 +152,12 @@ class NullSpace(_Stabilised):
 
     def __post_init__(self):
         super().__post_init__()
-        if self.basis not in NULL_SPACE_BASES:
-            raise InputError(f"basis: unknown {self.basis!r}; choose one of {', '.join(NULL_SPACE_BASES)}")
+        one_of("basis", self.basis, NULL_SPACE_BASES)
 
     def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (26) with N in place of R."""
-        M, p1, f, Phi, gamma = system.dynamics(t, s, sd, mode)
+        M, p1, constraint_values, Phi, gamma = system.dynamics(t, s, sd, mode)
         N = null_space_basis(Phi, self.basis, t)
         A = np.vstack((N.T @ M, Phi))
-        p = np.concatenate((N.T @ p1, baumgarte_p2(Phi, gamma, f, sd, self.alpha, self.beta)))
+        p = np.concatenate((N.T @ p1, baumgarte_p2(Phi, gamma, constraint_values, sd, self.alpha, self.beta)))
         return np.linalg.solve(A, p)

@@ -11,8 +11,9 @@ can compare the library with what a reader would otherwise have:
 - ``LagrangesMethod(L, [phi, psi, x], hol_coneqs=..., forcelist=..., frame=N)``,
   with the drive torque as ``(A, M(t) N.z)`` on the crank frame A and the gas
   force as ``(P, F N.x)`` on the slider point P = O + x_C N.x;
-- the gas force as a sympy ``Piecewise`` in (x_C, x_C'), with the same branches
-  and the same reading of the data as :class:`closedloop.slider_crank.GasForce`;
+- the gas force as a sympy ``Piecewise`` in (x_C, x_C'), the printed law of
+  :func:`closedloop.gas_law.printed_law` (the one source of the law in the
+  library) with the same reading of the data as :class:`closedloop.slider_crank.GasForce`;
   the usual user integrates straight through its switches (no events);
 - Table 1 values substituted, ``mass_matrix_full`` and ``forcing_full`` turned
   into functions by ``lambdify`` with its default settings, and the right-hand
@@ -22,20 +23,22 @@ can compare the library with what a reader would otherwise have:
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..errors import InputError, IntegrationError
+from .. import gas_law
+from ..errors import IntegrationError
+from ..methods import SOLVE_IVP_METHODS
 from ..slider_crank import DEFAULT_READING, OMEGA, TORQUE_RIPPLE, SliderCrankParameters, get_reading
+from ..validation import instance_of, one_of, positive_number
 
 __all__ = ["LagrangesBaseline", "BaselineResult"]
 
 #: The solve_ivp methods the baseline accepts.
-BASELINE_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+BASELINE_METHODS = SOLVE_IVP_METHODS
 
 
 @dataclass
@@ -83,10 +86,8 @@ class LagrangesBaseline:
     """
 
     def __init__(self, parameters=None, reading=DEFAULT_READING):
-        parameters = SliderCrankParameters() if parameters is None else parameters
-        if not isinstance(parameters, SliderCrankParameters):
-            raise InputError("parameters: expected a SliderCrankParameters")
-        self.parameters = parameters
+        self.parameters = instance_of("parameters", SliderCrankParameters() if parameters is None else parameters,
+                                      SliderCrankParameters)
         self.reading = get_reading(reading)
         start = time.process_time()
         self._mass_full, self._forcing_full = self._derive()
@@ -116,12 +117,7 @@ class LagrangesBaseline:
 
         reading = self.reading
         torque = reading.torque_mean + TORQUE_RIPPLE * sm.sin(OMEGA * t)
-        a, b, c = reading.gas_coefficients
-        gas = reading.force_sign * sm.Piecewise(
-            (-a / (6 - x) + b, (dx > 0) & (x >= 1.5) & (x <= 5)),
-            (-c * (1 - sm.sin(2 * sm.pi * (x - sm.Rational(21, 4)))), (dx > 0) & (x > 5) & (x <= 5.5)),
-            (0, True),
-        )
+        gas = reading.force_sign * gas_law.printed_law(x, dx, reading.gas_coefficients)
 
         method = me.LagrangesMethod(T - Pi, [phi, psi, x], hol_coneqs=[f1, f2],
                                     forcelist=[(A, torque * N.z), (P, gas * N.x)], frame=N)
@@ -166,13 +162,10 @@ class LagrangesBaseline:
         IntegrationError
             If solve_ivp fails; the message names the time reached.
         """
-        if not (isinstance(t_end, (int, float, np.floating)) and math.isfinite(t_end) and t_end > 0):
-            raise InputError(f"t_end: must be a finite number > 0 s, got {t_end!r}")
-        if method not in BASELINE_METHODS:
-            raise InputError(f"method: unknown {method!r}; choose one of {', '.join(BASELINE_METHODS)}")
-        for name, value in (("rtol", rtol), ("atol", atol)):
-            if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value > 0):
-                raise InputError(f"{name}: must be finite and > 0, got {value!r}")
+        positive_number("t_end", t_end, unit="s")
+        one_of("method", method, BASELINE_METHODS)
+        positive_number("rtol", rtol)
+        positive_number("atol", atol)
         y0 = np.concatenate((initial_state.s, initial_state.sd))
         start = time.process_time()
         sol = solve_ivp(self.rhs, (0.0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval)

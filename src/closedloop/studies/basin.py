@@ -56,12 +56,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ConvergenceError, InputError, IntegrationError, SingularConfigurationError
-from ..kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE
-from ..linalg import solve_many
+from ..errors import InputError, IntegrationError
+from ..formulations.minimal import minimal_accelerations
+from ..kinematics import solve_dependent_many
+from ..linalg import orthogonal_complement_many
 from ..simulation import switching as rule
 from ..slider_crank import MOTIONS, SliderCrankSystem, motion_codes, slider_crank_system
 from ..slider_crank import initial_state as slider_crank_initial_state
+from ..validation import finite_array, positive_number
 
 __all__ = ["BasinMap", "basin_map", "integrate_outcomes", "reference_outcomes", "boundary_cells",
            "compare_outcomes", "Agreement", "DEFAULT_STEP", "grid_values"]
@@ -97,25 +99,7 @@ class _Model:
 
     def configuration(self, q, z_guess):
         """s and Phi_s with s[q] = q and z from Newton on f(q, z) = 0 (6), started at z_guess."""
-        system, zi = self.system, self.z
-        s = np.empty((system.n, q.size))
-        s[self.q] = q
-        s[zi] = z_guess
-        for _ in range(NEWTON_MAX_ITERATIONS):
-            f, Phi = system.constraints_and_jacobian_many(s)
-            scale = 1.0 + np.abs(s).max(axis=0)
-            if np.all(np.abs(f).max(axis=0) <= NEWTON_TOLERANCE * scale):
-                return s, Phi
-            step = solve_many(Phi[:, zi], f)
-            s[zi] -= step
-            if not np.all(np.isfinite(s)):
-                break
-            if np.all(np.abs(step).max(axis=0) <= NEWTON_TOLERANCE * (1.0 + np.abs(s[zi]).max(axis=0))):
-                return s, system.constraints_and_jacobian_many(s)[1]
-        raise ConvergenceError(
-            f"Newton on f(q, z) = 0 did not converge in {NEWTON_MAX_ITERATIONS} iterations for some "
-            "cells of the batch: the mechanism may not assemble there"
-        )
+        return solve_dependent_many(self.system, q, z_guess)
 
     def evaluate(self, t, q, qd, z_guess, mode):
         """The state and its accelerations at K cells, each on its branch ``mode[:, j]``.
@@ -128,20 +112,15 @@ class _Model:
         return point
 
     def _accelerations(self, t, s, Phi, qd, mode):
-        system, zi = self.system, self.z
+        system = self.system
         size = s.shape[1]
-        R = np.empty((system.n, size))
-        R[self.q] = 1.0
-        R[zi] = -solve_many(Phi[:, zi], Phi[:, [self.q]][:, 0])      # (20)
-        sd = R * qd
+        R = orthogonal_complement_many(Phi, system.q_index, self.z)      # (20), shape (n, 1, K)
+        sd = R[:, 0] * qd
         M, p1, _, _, gamma = system.dynamics_many(t, s, sd)
         if self.force is not None:
             p1 = p1 + self.force.many(t, s, sd, mode)
-        c = np.zeros((system.n, size))
-        c[zi] = solve_many(Phi[:, zi], -gamma)                          # from (10)
-        A = np.einsum("ik,ijk,jk->k", R, M, R)                           # R^T M R
-        b = np.einsum("ik,ik->k", R, p1 - np.einsum("ijk,jk->ik", M, c))
-        qdd = b / A
+        qdd, c = minimal_accelerations(M, p1, Phi, gamma, R, self.z)
+        qdd, R = qdd[0], R[:, 0]
         self.evaluations += 1
         self.cell_evaluations += size
         return {"sd": sd, "sdd": R * qdd + c, "qdd": qdd, "R": R, "c": c}
@@ -289,9 +268,8 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
 
 
 def _check_time(t_end, step):
-    for name, value in (("t_end", t_end), ("step", step)):
-        if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value > 0):
-            raise InputError(f"{name}: must be a finite number > 0 s, got {value!r}")
+    positive_number("t_end", t_end, unit="s")
+    positive_number("step", step, unit="s")
     if step > t_end:
         raise InputError(f"step: must be <= t_end = {t_end:g} s, got {step:g} s")
 
@@ -662,11 +640,9 @@ def _cell_index(values, value):
 def _check_grid(phi0_values, dphi0_values):
     arrays = []
     for name, values in (("phi0", phi0_values), ("dphi0", dphi0_values)):
-        values = np.atleast_1d(np.asarray(values, dtype=float))
-        if values.ndim != 1 or values.size == 0:
+        if np.ndim(values) > 1 or np.size(values) == 0:
             raise InputError(f"{name}: need a non-empty list of values")
-        if not np.all(np.isfinite(values)):
-            raise InputError(f"{name}: values must be finite")
+        values = finite_array(name, values)
         if values.size > 1 and np.any(np.diff(values) <= 0):
             raise InputError(f"{name}: values must increase strictly")
         arrays.append(values)

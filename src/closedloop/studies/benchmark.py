@@ -75,6 +75,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ClosedLoopError, InputError
+from .. import methods as method_names
 
 __all__ = [
     "Entry", "study_entries", "StudySettings", "DEFAULT_SETTINGS", "QUICK_SETTINGS", "run_study",
@@ -93,10 +94,11 @@ PERFORMANCE_TARGET = 1e-8      # error_t10 at which the library is compared with
 PLATEAU_RATIO = 100.0          # an error this many times rtol no longer follows the tolerance
 STEP_RULE_DT = 0.05            # s: Delta t of the rule alpha = 1/dt, beta = sqrt(2)/dt (chapter 3 uses 0.1-0.02)
 BASELINE_KEY = "sympy"
-SOLVE_IVP_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
+#: solve_ivp's methods but RK23 (RK45 is the same kind of method, of higher order).
+SOLVE_IVP_METHODS = tuple(method for method in method_names.SOLVE_IVP_METHODS if method != "RK23")
 #: solve_ivp's five, and the compiled DOP853 of scipy.integrate.ode (closedloop.simulation.dop853).
-ALL_METHODS = SOLVE_IVP_METHODS + ("ode.dop853",)
-EXPLICIT_RK = ("RK45", "DOP853")
+ALL_METHODS = SOLVE_IVP_METHODS + (method_names.COMPILED_METHOD,)
+EXPLICIT_RK = tuple(method for method in method_names.EXPLICIT_RUNGE_KUTTA_METHODS if method != "RK23")
 
 
 @dataclass(frozen=True)

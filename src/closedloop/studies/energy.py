@@ -29,9 +29,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import cumulative_trapezoid, quad
 
+from .. import gas_law
 from ..errors import InputError
-from ..slider_crank import (DEFAULT_READING, OMEGA, SliderCrankParameters, drive_torque, gas_force,
-                           get_reading, initial_state)
+from ..slider_crank import (DEFAULT_READING, OMEGA, SliderCrankParameters, SliderCrankSystem, drive_torque,
+                           gas_force, get_reading, initial_state)
+from ..validation import instance_of
 
 __all__ = [
     "torque_work_per_turn",
@@ -46,7 +48,7 @@ __all__ = [
 ]
 
 #: Where the printed gas law holds: the inner and outer dead centres of Table 1's slider [m].
-GAS_STROKE = (1.5, 5.5)
+GAS_STROKE = gas_law.STROKE
 
 
 def torque_work_per_turn(reading=DEFAULT_READING):
@@ -97,15 +99,14 @@ def gas_work_per_cycle(parameters=None, reading=DEFAULT_READING):
     float
         About -260.4 J in the paper's reading: the gas takes energy out.
     """
-    parameters = SliderCrankParameters() if parameters is None else parameters
-    if not isinstance(parameters, SliderCrankParameters):
-        raise InputError("parameters: expected a SliderCrankParameters")
+    parameters = instance_of("parameters", SliderCrankParameters() if parameters is None else parameters,
+                             SliderCrankParameters)
     reading = get_reading(reading)
     inner, outer = parameters.l2 - parameters.l1, parameters.l2 + parameters.l1
     low, high = max(inner, GAS_STROKE[0]), min(outer, GAS_STROKE[1])
     if low >= high:
         return 0.0
-    breaks = [5.0] if low < 5.0 < high else None
+    breaks = [gas_law.CHANGE_POINT] if low < gas_law.CHANGE_POINT < high else None
     work = quad(lambda x: gas_force(x, 1.0, reading), low, high, points=breaks)[0]
     return reading.force_sign * work
 
@@ -115,10 +116,12 @@ def gas_outward_work(x, reading=DEFAULT_READING):
 
     With ``a, b, c`` = 282.857, 62.857, 110 (scaled by the reading)::
 
-        U(x) = a ln((6 - x)/4.5) + b (x - 1.5)                           1.5 <= x <= 5
-        U(x) = U(5) - c (x - 5) - c cos(2 pi (x - 5.25)) / (2 pi)        5 <= x <= 5.5
+        U(x) = a ln((6 - x)/4.5) + b (x - 1.5)                                  1.5 <= x <= 5
+        U(x) = U(5) - c (x - 5) - c [cos(2 pi (x - 5.25)) - cos(-pi/2)] / (2 pi)   5 <= x <= 5.5
 
     times the reading's ``force_sign``; constant outside [1.5, 5.5], where F = 0.
+    Both pieces are the integrals of the law of :mod:`closedloop.gas_law`,
+    computed by sympy (:func:`closedloop.gas_law.outward_work_functions`).
     The work the gas does while the slider moves out from x_a to x_b is
     ``U(x_b) - U(x_a)``; moving in, it does none.
 
@@ -128,12 +131,11 @@ def gas_outward_work(x, reading=DEFAULT_READING):
     reading : str or Reading, optional
     """
     reading = get_reading(reading)
-    a, b, c = reading.gas_coefficients
+    inner_work, outer_work = gas_law.outward_work_functions()
     x = np.clip(np.asarray(x, dtype=float), *GAS_STROKE)
-    inner = np.minimum(x, 5.0)
-    value = a * np.log((6.0 - inner) / 4.5) + b * (inner - 1.5)
-    beyond = np.maximum(x - 5.0, 0.0)
-    value = value - c * beyond - c * (np.cos(2.0 * np.pi * (5.0 + beyond - 5.25))) / (2.0 * np.pi)
+    change = gas_law.CHANGE_POINT
+    value = (inner_work(np.minimum(x, change), *reading.gas_coefficients)
+             + outer_work(np.maximum(x, change), *reading.gas_coefficients))
     value = reading.force_sign * value
     return value if value.ndim else float(value)
 
@@ -218,9 +220,7 @@ def non_conservative_work(system, result):
     -------
     WorkHistory
     """
-    reading = getattr(system, "reading", None)
-    if reading is None:
-        raise InputError("system: expected a slider-crank system from slider_crank_system()")
+    reading = instance_of("system", system, SliderCrankSystem).reading
     values = _values(system)
     t, phi, phi_dot = result.t, result.coordinate("phi"), result.velocity("phi")
     ripple_power = values["torque_ripple"] * np.sin(values["omega"] * t) * phi_dot
@@ -299,9 +299,7 @@ def crank_landscape(system, phi):
     -------
     Landscape
     """
-    reading = getattr(system, "reading", None)
-    if reading is None:
-        raise InputError("system: expected a slider-crank system from slider_crank_system()")
+    reading = instance_of("system", system, SliderCrankSystem).reading
     phi = np.asarray(phi, dtype=float)
     if phi.ndim != 1 or phi.size < 2 or np.any(np.diff(phi) <= 0):
         raise InputError("phi: must be a strictly increasing 1-d array of at least two angles")

@@ -1,0 +1,154 @@
+"""Input checks, written once: every :class:`~closedloop.errors.InputError` about a number or a name.
+
+Each check returns the value it accepted (as a float, an int or a float array)
+and otherwise raises an InputError whose one line names the parameter, says
+what is allowed and shows the value given, e.g. ``step: must be a finite
+number > 0 s, got -0.1``.  Python and numpy numbers are accepted alike
+(``5``, ``5.0``, ``np.int64(5)``, ``np.float64(5.0)``); ``True``, ``"5"`` and
+``None`` are refused, with the parameter named.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = ["finite_number", "positive_number", "integer", "positive_integer", "one_of", "finite_array", "instance_of",
+           "shown"]
+
+
+def shown(value):
+    """``value`` as an error message shows it: numpy scalars like the Python numbers they hold."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    return repr(value)
+
+
+def _is_real(value):
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
+def _range_text(minimum, maximum, strict, unit):
+    """``"> 0 s"``, ``">= 0"``, ``"from 1 to 8"``: the allowed range in words."""
+    suffix = f" {unit}" if unit else ""
+    if minimum is not None and maximum is not None:
+        return f" from {minimum:g} to {maximum:g}{suffix}"
+    if minimum is not None:
+        return f" {'>' if strict else '>='} {minimum:g}{suffix}"
+    if maximum is not None:
+        return f" {'<' if strict else '<='} {maximum:g}{suffix}"
+    return f" [{unit}]" if unit else ""
+
+
+def finite_number(name, value, *, minimum=None, maximum=None, strict=False, unit=None):
+    """``value`` as a float, if it is a finite real number within the bounds.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name, as the user wrote it.
+    value : object
+    minimum, maximum : float, optional
+        Bounds; with both, the range is closed (``strict`` is ignored).
+    strict : bool, optional
+        With one bound: exclude it (``> minimum``, ``< maximum``).
+    unit : str, optional
+        Shown after the range (``"s"``, ``"kg m^2"``).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    InputError
+        ``"{name}: must be a finite number{range}, got {value}"``.
+    """
+    if _is_real(value):
+        number = float(value)
+        inside = np.isfinite(number)
+        if inside and minimum is not None:
+            inside = number > minimum if strict and maximum is None else number >= minimum
+        if inside and maximum is not None:
+            inside = number < maximum if strict and minimum is None else number <= maximum
+        if inside:
+            return number
+    raise InputError(f"{name}: must be a finite number{_range_text(minimum, maximum, strict, unit)}, "
+                     f"got {shown(value)}")
+
+
+def positive_number(name, value, *, unit=None):
+    """``value`` as a float, if it is a finite number > 0 (a time, a step, a tolerance)."""
+    return finite_number(name, value, minimum=0.0, strict=True, unit=unit)
+
+
+def integer(name, value, *, minimum=None, maximum=None):
+    """``value`` as an int, if it is an integer (Python or numpy, not bool) within the closed bounds.
+
+    Raises
+    ------
+    InputError
+        ``"{name}: must be an integer{range}, got {value}"``.
+    """
+    if isinstance(value, (numbers.Integral, np.integer)) and not isinstance(value, (bool, np.bool_)):
+        number = int(value)
+        if (minimum is None or number >= minimum) and (maximum is None or number <= maximum):
+            return number
+    raise InputError(f"{name}: must be an integer{_range_text(minimum, maximum, False, None)}, got {shown(value)}")
+
+
+def positive_integer(name, value, *, maximum=None):
+    """``value`` as an int, if it is an integer >= 1 (and <= ``maximum``)."""
+    return integer(name, value, minimum=1, maximum=maximum)
+
+
+def one_of(name, value, choices):
+    """``value``, if it is one of ``choices`` (a sequence, or a mapping whose keys are the choices).
+
+    Raises
+    ------
+    InputError
+        ``"{name}: unknown {value}; choose one of {choices}"``.
+    """
+    try:
+        known = value in choices
+    except TypeError:                      # an unhashable value is no key of a mapping
+        known = False
+    if not known:
+        raise InputError(f"{name}: unknown {shown(value)}; choose one of {', '.join(map(str, choices))}")
+    return value
+
+
+def instance_of(name, value, kind):
+    """``value``, if it is an instance of the class ``kind``.
+
+    Raises
+    ------
+    InputError
+        ``"{name}: expected a {kind}, got {type}"``.
+    """
+    if not isinstance(value, kind):
+        raise InputError(f"{name}: expected a {kind.__name__}, got {type(value).__name__}")
+    return value
+
+
+def finite_array(name, value, *, size=None):
+    """``value`` as a 1-d float array of finite numbers (of ``size`` entries, if given).
+
+    Raises
+    ------
+    InputError
+        ``"{name}: need {size} values, got {k}"`` or ``"{name}: must be finite, got {values}"``.
+    """
+    try:
+        array = np.atleast_1d(np.asarray(value, dtype=float))
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: must be finite numbers, got {shown(value)}") from None
+    if size is not None and array.shape != (size,):
+        raise InputError(f"{name}: need {size} values, got {array.size}")
+    if not np.all(np.isfinite(array)):
+        raise InputError(f"{name}: must be finite, got {array}")
+    return array
