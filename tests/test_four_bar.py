@@ -13,7 +13,7 @@ import pytest
 import sympy as sp
 from scipy.integrate import solve_ivp
 
-from closedloop import (Augmented, Baumgarte, ClosedForm, InputError, Minimal, NullSpace, Orthogonal, Projected,
+from closedloop import (Augmented, Baumgarte, ClosedForm, Minimal, NullSpace, Orthogonal, Projected,
                         SingularConfigurationError, System, consistent_initial_state, derive, simulate)
 from closedloop.four_bar import four_bar_model, parameter_values
 from closedloop.kinematics import solve_dependent

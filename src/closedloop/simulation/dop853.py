@@ -32,11 +32,12 @@ import numpy as np
 from scipy.integrate import ode
 
 from ..errors import IntegrationError
+from ..methods import COMPILED_METHOD
 
 __all__ = ["METHOD", "ALLOWED_OPTIONS", "integrate_segment", "Segment"]
 
 #: The method name simulate() uses for this integrator.
-METHOD = "ode.dop853"
+METHOD = COMPILED_METHOD
 #: The solver options this integrator takes (everything else is refused before integrating).
 ALLOWED_OPTIONS = ("max_step", "first_step", "nsteps")
 #: Steps allowed in one call of the compiled code before it gives up (per segment piece).

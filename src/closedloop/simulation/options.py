@@ -12,17 +12,15 @@ from scipy.integrate import OdeSolver
 from ..errors import InputError
 from ..formulations import Formulation
 from ..kinematics import InitialState
+from ..methods import IMPLICIT_METHODS, SOLVER_METHODS
 from . import dop853
 
 __all__ = ["RunOptions", "run_options", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT", "MAX_STEPS",
            "INITIAL_TOLERANCE", "IMPLICIT_METHODS"]
 
-#: The methods simulate() accepts by name: solve_ivp's, and "ode.dop853", the compiled DOP853
-#: of scipy.integrate.ode with events added by :mod:`closedloop.simulation.dop853`.  An OdeSolver
-#: subclass is accepted too.
-SOLVER_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", dop853.METHOD)
-#: The implicit ones among them (for stiff problems).
-IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
+# The methods simulate() accepts by name (solve_ivp's, and "ode.dop853", the compiled DOP853 of
+# scipy.integrate.ode with events added by closedloop.simulation.dop853) come from
+# closedloop.methods; an OdeSolver subclass is accepted too.
 #: How switched forces are handled: with events and the sticking rule, or naively.
 SWITCHING = ("events", "naive")
 #: Default Kantorovich number above which a crossing of det Phi_z = 0 is refused (see the branch
