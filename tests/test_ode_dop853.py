@@ -96,7 +96,7 @@ def test_case_3_sticks_at_the_same_time_as_with_solve_ivp(slider_crank):
 
 
 def test_the_switch_estimate_is_the_first_zero_of_the_hermite_cubic():
-    from closedloop.simulation.dop853 import _hermite_root
+    from closedloop.hermite import first_root as _hermite_root
 
     # A cubic is its own Hermite interpolant: (u - 0.2)(u - 0.5)(u - 0.9) has three zeros in [0, 1]
     def g(u):

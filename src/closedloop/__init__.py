@@ -5,6 +5,8 @@ conditions on the motion of the slider-crank mechanism".  Equation numbers in
 docstrings are the paper's.
 """
 
+__version__ = "0.1.0"
+
 from .errors import (ClosedLoopError, ConvergenceError, InputError, IntegrationError,
                      SingularConfigurationError)
 from .formulations import (Augmented, Baumgarte, ClosedForm, Minimal, NullSpace, Orthogonal, Projected,
@@ -17,7 +19,6 @@ from .simulation import SimulationResult, simulate
 
 from . import _moved
 
-__version__ = "0.1.0"
 _moved.install(__name__)
 
 __all__ = [

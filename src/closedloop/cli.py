@@ -16,7 +16,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
+import time
+from pathlib import Path
 
 import numpy as np
 
@@ -229,8 +232,6 @@ def parse_range(name, text):
 
 def run_basin(args, progress=None):
     """Carry out ``closedloop basin``; returns the BasinMap."""
-    import os
-
     from .studies.basin import DEFAULT_STEP, basin_map, grid_values
 
     phi_start, phi_stop, n = parse_range("phi0", args.phi0)
@@ -270,8 +271,6 @@ class _ProgressBar:
     """A plain text progress bar on stderr: ``[#####.....]  50 %  12 s``."""
 
     def __init__(self, stream, width=40):
-        import time
-
         self.stream, self.width, self.clock, self.start = stream, width, time.perf_counter, time.perf_counter()
 
     def __call__(self, fraction):
@@ -328,8 +327,6 @@ def _format(summary):
 
 def run_benchmark(args):
     """Carry out ``closedloop benchmark``; returns the text to print."""
-    from pathlib import Path
-
     from .studies.benchmark import DEFAULT_SETTINGS, QUICK_SETTINGS, format_table, residual_traces, run_study
 
     if args.json is not None and not Path(args.json).resolve().parent.is_dir():

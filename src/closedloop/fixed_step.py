@@ -20,6 +20,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from .errors import InputError, IntegrationError
+from .formulations import Baumgarte
 from .validation import positive_integer, positive_number
 
 __all__ = [
@@ -220,8 +221,6 @@ def rk4_stability_map(system, s0, sd0, step, alpha_steps, beta_steps, n_steps=10
         ``|f|`` at the end over ``|f|`` at the start (a diverged run gives its
         growth when it stopped, above 1e3 growth_limit).
     """
-    from .formulations import Baumgarte
-
     alpha_steps = np.asarray(alpha_steps, dtype=float)
     beta_steps = np.asarray(beta_steps, dtype=float)
     growth = np.empty((beta_steps.size, alpha_steps.size))

@@ -23,6 +23,7 @@ import numpy as np
 import sympy as sp
 
 from .errors import InputError
+from .forces import as_switched_force
 from .linalg import CONDITION_LIMIT, condition_number, orthogonal_complement, solve_augmented
 from .validation import finite_number
 
@@ -289,8 +290,6 @@ class System:
     """
 
     def __init__(self, model: MultibodyModel, parameter_values=None, force=None):
-        from .forces import as_switched_force
-
         parameter_values = dict(parameter_values or {})
         by_name = {str(k): v for k, v in parameter_values.items()}
         missing = [str(p) for p in model.parameters if str(p) not in by_name]

@@ -6,6 +6,8 @@ functions only.
 
 from __future__ import annotations
 
+import numpy as np
+
 __all__ = ["plot_basin_map"]
 
 
@@ -25,7 +27,6 @@ def plot_basin_map(basin, title=None, cases=True, ax=None):
     -------
     matplotlib.figure.Figure
     """
-    import numpy as np
     from matplotlib.colors import ListedColormap
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch
@@ -69,7 +70,6 @@ def plot_basin_map(basin, title=None, cases=True, ax=None):
 
 def _cell_edges(values):
     """Edges of cells centred on evenly spaced sample values (one sample gets a width of 1e-3)."""
-    import numpy as np
 
     values = np.asarray(values, dtype=float)
     width = values[1] - values[0] if values.size > 1 else 1e-3

@@ -6,6 +6,10 @@ animations share one offline player.  matplotlib is imported inside the function
 
 from __future__ import annotations
 
+import re
+
+import numpy as np
+
 __all__ = ["slider_crank_points", "draw_slider_crank", "animate_slider_crank", "four_bar_points",
            "draw_four_bar", "animate_four_bar"]
 
@@ -19,7 +23,6 @@ def slider_crank_points(s, parameters):
     -------
     ndarray, shape (3, 2)
     """
-    import numpy as np
 
     phi, _, x = s[0], s[1], s[2]
     return np.array([[0.0, 0.0], [parameters.l1 * np.cos(phi), parameters.l1 * np.sin(phi)], [x, 0.0]])
@@ -89,7 +92,6 @@ def four_bar_points(s, lengths):
     ndarray, shape (4, 2)
         O = (0, 0), A = l1 (cos theta1, sin theta1), B = A + l2 (cos theta2, sin theta2), D = (l0, 0).
     """
-    import numpy as np
 
     theta1, theta2 = s[0], s[1]
     a = lengths["l1"] * np.array([np.cos(theta1), np.sin(theta1)])
@@ -146,7 +148,6 @@ def _animate(result, setup, move, size, frames, duration, title):
     ``setup(ax, s)`` draws the mechanism at the first state and returns its
     artists; ``move(artists, s)`` moves them to the state s.
     """
-    import numpy as np
     from matplotlib.animation import FuncAnimation
     from matplotlib.figure import Figure
 
@@ -188,7 +189,6 @@ _PLAYER_ICONS = {
 
 def _offline_player(html):
     """The animation's HTML with no request to the network: no CDN stylesheet, local icon names."""
-    import re
 
     html = re.sub(r'<link rel="stylesheet"\s*href="https://maxcdn[^"]*font-awesome[^"]*">', "", html)
     for old, new in _PLAYER_ICONS.items():

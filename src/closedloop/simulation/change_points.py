@@ -35,10 +35,11 @@ import math
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
+from .. import hermite
 from ..errors import SingularConfigurationError
 
 
-__all__ = ["singular_values", "find_change_point", "change_point_error", "CHANGE_POINT_LIMIT", "REFINE_BELOW"]
+__all__ = ["PathWatch", "singular_values", "find_change_point", "change_point_error", "CHANGE_POINT_LIMIT", "REFINE_BELOW"]
 
 #: Unit roundoff of float64: the smallest distance to the manifold a run can claim.
 EPSILON = float(np.finfo(float).eps)
@@ -77,10 +78,7 @@ def singular_values(jacobians):
 def _hermite(t, t0, t1, s0, s1, v0, v1):
     """Positions on the cubic Hermite interpolant over [t0, t1] at time t."""
     step = t1 - t0
-    x = (t - t0) / step
-    x2, x3 = x * x, x * x * x
-    return ((2 * x3 - 3 * x2 + 1) * s0 + (x3 - 2 * x2 + x) * step * v0 + (-2 * x3 + 3 * x2) * s1
-            + (x3 - x2) * step * v1)
+    return hermite.values((t - t0) / step, s0, s1, step * v0, step * v1)
 
 
 def maximal_minors(jacobian):
@@ -189,3 +187,59 @@ def change_point_error(found, names, method_name):
         "meet, and the motion past it is not determined by these equations; no formulation of this library "
         "passes a change point: end the run before it, or change the geometry"
     )
+
+
+class PathWatch:
+    """The step ends of one segment, as a runner records them, checked for change points.
+
+    Active unless the run's ``branch_limit`` is infinite.  The runner calls
+    :meth:`start` at each segment's start, :meth:`record` after each accepted
+    step (or passes a segment's step ends to :meth:`check` at once), and
+    :meth:`check_recorded` when a segment failed, so that a change point passed
+    before the failure is named as its cause.
+    """
+
+    def __init__(self, system, formulation, options):
+        self.system, self.formulation, self.options = system, formulation, options
+        self.active = math.isfinite(options.branch_limit)
+        self.times, self.states, self.seed = [], [], None
+
+    def start(self, t0, y0, s0):
+        """Begin a segment at ``(t0, y0)`` whose coordinates are ``s0`` (the seed of the unpacker)."""
+        if self.active:
+            self.times, self.states, self.seed = [t0], [np.array(y0, dtype=float)], s0
+
+    def record(self, t, y):
+        """One accepted step end."""
+        self.times.append(t)
+        self.states.append(y.copy())
+
+    def check(self, times, states, t_stop=None, y_stop=None, failed_at=None):
+        """Raise at the first change point along step ends ``times`` (K,), ``states`` (m, K).
+
+        Step ends past ``t_stop`` (the step that overshot a switch) are left out and
+        ``(t_stop, y_stop)`` closes the path.
+        """
+        if not self.active or len(times) < 2:
+            return
+        times, states = np.asarray(times, dtype=float), np.asarray(states, dtype=float)
+        if t_stop is not None:
+            keep = times < t_stop
+            times = np.append(times[keep], t_stop)
+            states = np.column_stack((states[:, keep], y_stop))
+        if self.options.work:
+            states = states[:-1]
+        unpack = self.formulation.unpacker(self.system)
+        unpack.seed(self.seed)
+        pairs = [unpack(states[:, k], times[k]) for k in range(times.size)]
+        s = np.array([p[0] for p in pairs]).T
+        sd = np.array([p[1] for p in pairs]).T
+        found = find_change_point(self.system, times, s, sd, failed_at)
+        if found is not None:
+            raise change_point_error(found, [str(c) for c in self.system.model.coordinates],
+                                     self.options.method_name)
+
+    def check_recorded(self, t_stop=None, y_stop=None, failed_at=None):
+        """:meth:`check` over the step ends recorded since :meth:`start`."""
+        if self.active and len(self.times) > 1:
+            self.check(self.times, np.column_stack(self.states), t_stop, y_stop, failed_at)

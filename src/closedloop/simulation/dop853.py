@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import ode
 
+from .. import hermite
 from ..errors import IntegrationError
 from ..methods import COMPILED_METHOD
 
@@ -269,52 +270,6 @@ def _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failur
                    np.array(watch.end_times))
 
 
-def _hermite_root(g0, g1, d0, d1):
-    """The first zero in [0, 1] of the cubic with values g0, g1 and slopes d0, d1 at 0 and 1.
-
-    ``g0`` and ``g1`` bracket zero (g0 != g1).  The cubic is sampled at eight
-    points first, so that of several zeros the earliest is taken, then the
-    bracket is refined by Newton steps kept inside it (bisection otherwise).
-    """
-    def p(u):
-        v = 1.0 - u
-        return (1.0 + 2.0 * u) * v * v * g0 + u * v * v * d0 + u * u * (3.0 - 2.0 * u) * g1 - u * u * v * d1
-
-    if g0 == 0.0:
-        return 0.0
-    left, value = 0.0, g0
-    for k in range(1, 9):
-        right = k / 8.0
-        after = p(right) if k < 8 else g1
-        if after == 0.0:
-            return right
-        if (after > 0.0) != (value > 0.0):
-            return _refine(p, left, right, value > 0.0, g0, g1, d0, d1)
-        left, value = right, after
-    return 1.0               # only reached through round-off in the samples: take the step end
-
-
-def _refine(p, left, right, left_positive, g0, g1, d0, d1):
-    """The zero of the Hermite cubic p in the bracket [left, right], to 1e-13."""
-    u = 0.5 * (left + right)
-    for _ in range(60):
-        value = p(u)
-        if value == 0.0:
-            return u
-        if (value > 0.0) == left_positive:
-            left = u
-        else:
-            right = u
-        slope = (6.0 * u * (u - 1.0) * (g0 - g1) + (1.0 - u) * (1.0 - 3.0 * u) * d0
-                 + u * (3.0 * u - 2.0) * d1)                                  # dp/du
-        step = u - value / slope if slope != 0.0 else left - 1.0
-        u_next = step if left < step < right else 0.5 * (left + right)
-        if abs(u_next - u) <= 1e-13 or right - left <= 1e-13:
-            return u_next
-        u = u_next
-    return u
-
-
 def _locate(rhs, switching, start, hit, directions, rtol, atol, failure):
     """The first zero inside the step that stopped the code: ``(t, y, index)``.
 
@@ -336,7 +291,7 @@ def _locate(rhs, switching, start, hit, directions, rtol, atol, failure):
         crossed = (before <= 0.0 <= after and d >= 0) or (before >= 0.0 >= after and d <= 0)
         if not crossed or before == after:
             continue
-        root = ta + span * _hermite_root(before, after, span * rates_a[i], span * rates_b[i])
+        root = ta + span * hermite.first_root(before, after, span * rates_a[i], span * rates_b[i])
         if best is None or root < best[0]:
             best = (root, i)
     t_star, i = best

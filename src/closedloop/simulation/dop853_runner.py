@@ -44,7 +44,7 @@ def segment(run, t0, s0, sd0, mode):
     """Integrate on branch ``mode`` from ``t0`` until t_end or the next switch: a SegmentEnd."""
     options = run.options
     y0, unpack, rhs = run.start_segment(s0, sd0, mode)
-    run.start_path(t0, y0, s0)
+    run.path.start(t0, y0, s0)
     directions = [-1.0 if on else 1.0 for on in mode[:len(run.names)]]
     if options.stop_when is not None:
         directions.append(1.0)
@@ -63,10 +63,10 @@ def segment(run, t0, s0, sd0, mode):
         raise run.budget_error(exceeded.t) from None
     except ClosedLoopError as error:                # a change point passed earlier is the real cause
         if hasattr(error, "path_times"):
-            run.check_path(error.path_times, error.path_states, failed_at=error.failed_at)
+            run.path.check(error.path_times, error.path_states, failed_at=error.failed_at)
         raise
     run.nfev += result.nfev
-    run.check_path(result.step_times, result.step_ends)
+    run.path.check(result.step_times, result.step_ends)
     run.last_step_size = result.last_step
     run.step_sizes.extend(result.steps)
     run.t_reached = result.t_stop

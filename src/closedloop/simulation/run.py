@@ -53,9 +53,8 @@ class Run:
         self.partition_singularities = []
         self.stopped_at = None
         self.switch_events, self.sticking_intervals = [], []
-        # The step ends of the current segment, for the change-point check.
-        self.watch_path = math.isfinite(options.branch_limit)
-        self.path_times, self.path_states, self.path_seed = [], [], None
+        # The step ends of the current segment, checked for change points.
+        self.path = change_points.PathWatch(system, formulation, options)
 
     # -- what every runner shares -------------------------------------------------
     def evaluations_left(self):
@@ -108,41 +107,6 @@ class Run:
             self.work_done = float(y_stop[-1])
         s_end, sd_end = unpack(y_stop, t_stop)
         return SegmentEnd(t_stop, s_end, sd_end, event)
-
-    def start_path(self, t0, y0, s0):
-        """Begin recording the step ends of a segment that starts at ``(t0, y0)``, coordinates ``s0``."""
-        if self.watch_path:
-            self.path_times, self.path_states, self.path_seed = [t0], [np.array(y0, dtype=float)], s0
-
-    def check_path(self, times, states, t_stop=None, y_stop=None, failed_at=None):
-        """Raise at the first change point along a segment's step ends (times (K,), states (m, K)).
-
-        Step ends past ``t_stop`` (the step that overshot a switch) are left out and
-        ``(t_stop, y_stop)`` closes the path.
-        """
-        if not self.watch_path or len(times) < 2:
-            return
-        times, states = np.asarray(times, dtype=float), np.asarray(states, dtype=float)
-        if t_stop is not None:
-            keep = times < t_stop
-            times = np.append(times[keep], t_stop)
-            states = np.column_stack((states[:, keep], y_stop))
-        if self.options.work:
-            states = states[:-1]
-        unpack = self.formulation.unpacker(self.system)
-        unpack.seed(self.path_seed)
-        pairs = [unpack(states[:, k], times[k]) for k in range(times.size)]
-        s = np.array([p[0] for p in pairs]).T
-        sd = np.array([p[1] for p in pairs]).T
-        found = change_points.find_change_point(self.system, times, s, sd, failed_at)
-        if found is not None:
-            raise change_points.change_point_error(found, [str(c) for c in self.system.model.coordinates],
-                                                   self.options.method_name)
-
-    def check_recorded_path(self, failed_at=None):
-        """check_path over the step ends recorded so far, after a segment that failed at ``failed_at``."""
-        if self.watch_path and len(self.path_times) > 1:
-            self.check_path(self.path_times, np.column_stack(self.path_states), failed_at=failed_at)
 
     def check_finite(self, t_out, y_out):
         if np.isfinite(y_out).all():

@@ -41,7 +41,7 @@ def counting_solver(run, method):
     """
     base = SOLVER_CLASSES[method] if isinstance(method, str) else method
     max_steps = run.options.max_steps
-    watch = run.watch_path
+    watch = run.path.active
 
     class Counted(base):
         def _step_impl(self):
@@ -51,8 +51,7 @@ def counting_solver(run, method):
                 run.step_sizes.append(abs(self.t - t_before))
                 run.t_reached = self.t
                 if watch:
-                    run.path_times.append(self.t)
-                    run.path_states.append(self.y.copy())
+                    run.path.record(self.t, self.y)
                 if len(run.step_sizes) >= max_steps and self.t != self.t_bound:
                     run.steps_exhausted = True
                     return False, f"max_steps = {max_steps} reached"
@@ -116,11 +115,11 @@ def segment(run, t0, s0, sd0, mode):
     y0, unpack, rhs = run.start_segment(s0, sd0, mode)
     events, terminal = _events(run, unpack, mode)
     reached, overflow = [t0], []                    # last time the rhs was evaluated; (t, message) of overflows
-    run.start_path(t0, y0, s0)
+    run.path.start(t0, y0, s0)
     try:
         sol = _solve(run, rhs, t0, y0, events, reached, overflow)
     except ClosedLoopError:
-        run.check_recorded_path(reached[0])         # a change point passed before is the real cause
+        run.path.check_recorded(failed_at=reached[0])         # a change point passed before is the real cause
         raise
     run.nfev += sol.nfev
     event = t_stop = y_stop = None
@@ -128,8 +127,7 @@ def segment(run, t0, s0, sd0, mode):
         times = [te[0] if te.size else np.inf for te in sol.t_events[:terminal]]
         event = int(np.argmin(times))
         t_stop, y_stop = sol.t_events[event][0], sol.y_events[event][0]
-    if run.watch_path:
-        run.check_path(run.path_times, np.column_stack(run.path_states), t_stop, y_stop)
+    run.path.check_recorded(t_stop, y_stop)
     if terminal < len(events):
         _check_crossings(run, sol.t_events[terminal], sol.y_events[terminal], unpack)
     if sol.status == -1:

@@ -50,18 +50,23 @@ the caller says how a start ``(q0, q0')`` is assembled, through ``initial_state`
 from __future__ import annotations
 
 import math
+import multiprocessing
 import os
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import __version__, hermite
 from ..errors import InputError, IntegrationError
+from ..formulations import Minimal
 from ..formulations.minimal import minimal_accelerations
 from ..kinematics import solve_dependent_many
 from ..linalg import orthogonal_complement_many
+from ..simulation import simulate
 from ..simulation import switching as rule
-from ..slider_crank import MOTIONS, SliderCrankSystem, motion_codes, slider_crank_system
+from ..slider_crank import (DEFAULT_READING, MOTIONS, SliderCrankSystem, get_reading, motion_codes,
+                            slider_crank_system)
 from ..slider_crank import initial_state as slider_crank_initial_state
 from ..validation import finite_array, positive_number
 
@@ -411,7 +416,7 @@ def _advance(model, cells, T):
     theta = np.full((model.switches, sub.size), np.inf)
     for i in range(model.switches):
         rows = crossed[i, sub]
-        theta[i, rows] = _hermite_root(h0[i, sub][rows], h1[i, sub][rows], dt[sub][rows] * r0[i, rows],
+        theta[i, rows] = hermite.first_root(h0[i, sub][rows], h1[i, sub][rows], dt[sub][rows] * r0[i, rows],
                                        dt[sub][rows] * r1[i, rows])
     which = np.argmin(theta, axis=0)
     fraction = theta[which, np.arange(sub.size)]
@@ -461,32 +466,6 @@ def _store_points(cells, idx, point):
     for key in _POINT_KEYS:
         cells.points[key][..., idx] = point[key]
     cells.cached[idx] = True
-
-
-def _hermite_root(h0, h1, m0, m1):
-    """The root in [0, 1] of the cubic Hermite interpolant with values h0, h1 and slopes m0, m1 (per unit).
-
-    Safeguarded Newton: bisection keeps the bracket; 0 where the ends do not bracket a root.
-    """
-    lo, hi = np.zeros_like(h0), np.ones_like(h0)
-    flip = h0 > 0                                  # orient so that p(lo) <= 0 <= p(hi)
-    sign = np.where(flip, -1.0, 1.0)
-    a0, a1, b0, b1 = sign * h0, sign * h1, sign * m0, sign * m1
-    bracket = (a0 <= 0) & (a1 >= 0) & (h0 != 0)
-    x = np.where(a1 - a0 > 0, -a0 / np.where(a1 - a0 > 0, a1 - a0, 1.0), 0.5)
-    for _ in range(30):
-        x2, x3 = x * x, x * x * x
-        p = (2 * x3 - 3 * x2 + 1) * a0 + (x3 - 2 * x2 + x) * b0 + (-2 * x3 + 3 * x2) * a1 + (x3 - x2) * b1
-        dp = (6 * x2 - 6 * x) * a0 + (3 * x2 - 4 * x + 1) * b0 + (-6 * x2 + 6 * x) * a1 + (3 * x2 - 2 * x) * b1
-        lo = np.where(p <= 0, x, lo)
-        hi = np.where(p > 0, x, hi)
-        newton = x - p / np.where(dp != 0, dp, 1.0)
-        x_new = np.where((dp != 0) & (newton > lo) & (newton < hi), newton, 0.5 * (lo + hi))
-        settled = (hi - lo < 1e-13) | (np.abs(x_new - x) < 1e-14) | ~bracket
-        x = x_new
-        if np.all(settled):
-            break
-    return np.where(bracket, np.clip(x, 0.0, 1.0), 0.0)
 
 
 def _record(cells, idx, t):
@@ -684,9 +663,6 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
     -------
     BasinMap
     """
-    from .. import __version__
-    from ..slider_crank import DEFAULT_READING, get_reading
-
     phi0_values, dphi0_values = _check_grid(phi0_values, dphi0_values)
     _check_time(t_end, step)
     reading = get_reading(DEFAULT_READING if reading is None else reading).name
@@ -700,8 +676,6 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
                                        progress=progress, initial_state=slider_crank_initial_state), 0.0)]
         order = [np.arange(phi_flat.size)]
     else:
-        import multiprocessing
-
         order = [np.arange(phi_flat.size)[j::workers] for j in range(workers)]   # interleaved: equal work
         tasks = [(reading, phi_flat[o], dphi_flat[o], t_end, step) for o in order]
         slider_crank_system(reading=reading)            # derive once, before the workers fork
@@ -759,9 +733,6 @@ def reference_outcome(system, phi0, dphi0, t_end=20.0, *, initial_state=None):
     int
         The outcome code, an index of :data:`~closedloop.slider_crank.MOTIONS`.
     """
-    from ..formulations import Minimal
-    from ..simulation import simulate
-
     initial_state = _start_rule(system, initial_state)
     q = int(system.q_index[0])
     limit = 2.0 * math.pi + 0.5
@@ -787,8 +758,6 @@ def reference_outcomes(phi0_values, dphi0_values, t_end=20.0, cells=None, readin
     ndarray of int, shape (M, N)
         Outcome codes; -1 where a cell was not computed.
     """
-    from ..slider_crank import DEFAULT_READING
-
     phi0_values, dphi0_values = _check_grid(phi0_values, dphi0_values)
     system = slider_crank_system(reading=DEFAULT_READING if reading is None else reading)
     out = np.full((dphi0_values.size, phi0_values.size), -1)

@@ -63,6 +63,7 @@ suit it, it runs ``baseline_methods`` (DOP853 and LSODA) in the other cases.
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 import os
 import platform
@@ -73,9 +74,17 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+import scipy
+import sympy
 
 from ..errors import ClosedLoopError, InputError
+from .. import __version__
 from .. import methods as method_names
+from ..formulations import Augmented, Baumgarte, ClosedForm, Minimal, Orthogonal, Projected, baumgarte_from_step
+from ..methods import SOLVER_METHODS
+from ..simulation import simulate
+from ..slider_crank import get_case, initial_state, slider_crank_system
+from .baseline import LagrangesBaseline
 
 __all__ = [
     "Entry", "study_entries", "StudySettings", "DEFAULT_SETTINGS", "QUICK_SETTINGS", "run_study",
@@ -126,9 +135,6 @@ class Entry:
 
 def study_entries():
     """The contestants, in display order: a new formulation is one more line here."""
-    from ..formulations import Augmented, Baumgarte, ClosedForm, Minimal, Orthogonal, baumgarte_from_step
-    from ..formulations import Projected
-
     return (
         Entry("augmented", "Augmented (12)", Augmented()),
         Entry("baumgarte-5-5", "Baumgarte (5, 5)", Baumgarte(5, 5)),
@@ -223,19 +229,13 @@ def source_fingerprint():
 
 
 def _provenance(settings):
-    import numpy
-    import scipy
-    import sympy
-
-    from .. import __version__
-
     return {
         "closedloop_version": __version__,
         "source_fingerprint": source_fingerprint(),
         "settings": settings.as_dict(),
         "machine": {"platform": platform.platform(), "machine": platform.machine(),
                     "cpu_count": os.cpu_count(), "python": sys.version.split()[0],
-                    "numpy": numpy.__version__, "scipy": scipy.__version__, "sympy": sympy.__version__},
+                    "numpy": np.__version__, "scipy": scipy.__version__, "sympy": sympy.__version__},
     }
 
 
@@ -259,8 +259,6 @@ def _run(entry, context, method, rtol, t_eval, residuals=False):
         y = np.vstack((res.s, res.sd))
         norms = _residuals(context.system, y) if residuals else None
     else:
-        from ..simulation import simulate
-
         res = simulate(context.system, context.state, T_END, formulation=entry.formulation, method=method,
                        rtol=rtol, atol=rtol, t_eval=t_eval)
         y = np.vstack((res.s, res.sd))
@@ -330,9 +328,6 @@ def _curve(entry, context, case, method, settings):
 
 def _reference(system, state, grid, check_index):
     """The reference on the grid and its agreement with the rtol = 1e-12 solution."""
-    from ..formulations import Minimal
-    from ..simulation import simulate
-
     runs = {}
     for tol in (REFERENCE_TOL, REFERENCE_CHECK_TOL):
         res = simulate(system, state, T_END, formulation=Minimal(), method=REFERENCE_METHOD, rtol=tol, atol=tol,
@@ -363,10 +358,6 @@ def run_study(settings=DEFAULT_SETTINGS, entries=None, progress=None):
         agreement with the rtol = 1e-12 solution), ``wall_s`` and ``rows``, the
         list of rows described in the module docstring.
     """
-    from .baseline import LagrangesBaseline
-    from ..simulation import SOLVER_METHODS
-    from ..slider_crank import get_case, initial_state, slider_crank_system
-
     for method in settings.methods + settings.other_case_methods + settings.baseline_methods:
         if method not in SOLVER_METHODS:
             raise InputError(f"methods: unknown {method!r}; choose from {', '.join(SOLVER_METHODS)}")
@@ -404,8 +395,6 @@ def load_study(path):
     Returns the dict of :func:`run_study`, with one more key, ``"current"``: True
     when its ``source_fingerprint`` is that of the library now imported.
     """
-    import json
-
     try:
         with open(path, encoding="utf-8") as stream:
             data = json.load(stream)
@@ -495,9 +484,6 @@ def residual_traces(case=2, method="DOP853", rtol=1e-6, keys=("augmented", "baum
 
     Returns a dict ``label -> (t, |f|, |f'|)``.
     """
-    from .baseline import LagrangesBaseline
-    from ..slider_crank import get_case, initial_state, slider_crank_system
-
     system = slider_crank_system()
     number = get_case(case)
     state = initial_state(system, number.phi0, number.dphi0)

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import cumulative_trapezoid, quad
 
-from .. import gas_law
+from .. import gas_law, hermite
 from ..errors import InputError
 from ..slider_crank import (DEFAULT_READING, OMEGA, SliderCrankParameters, SliderCrankSystem, drive_torque,
                            gas_force, get_reading, initial_state)
@@ -152,15 +152,7 @@ def _outward_increments(x, rate, step, work_function):
     x0, x1, v0, v1 = x[:-1], x[1:], rate[:-1] * step, rate[1:] * step
     increments = np.where((rate[:-1] > 0) & (rate[1:] > 0), work_function(x1) - work_function(x0), 0.0)
     for k in np.flatnonzero((rate[:-1] > 0) != (rate[1:] > 0)):
-        # p(tau) = h00 x0 + h10 v0 + h01 x1 + h11 v1 on [0, 1]; p' is quadratic in tau
-        d = x1[k] - x0[k]
-        coefficients = [3 * (v0[k] + v1[k]) - 6 * d, 6 * d - 4 * v0[k] - 2 * v1[k], v0[k]]
-        roots = np.roots(coefficients) if any(coefficients[:2]) else np.array([0.0])
-        roots = np.real(roots[np.isreal(roots)])
-        roots = roots[(roots >= 0) & (roots <= 1)]
-        tau = roots[np.argmin(np.abs(roots - 0.5))] if roots.size else 0.5
-        x_turn = (x0[k] * (2 * tau**3 - 3 * tau**2 + 1) + v0[k] * (tau**3 - 2 * tau**2 + tau)
-                  + x1[k] * (-2 * tau**3 + 3 * tau**2) + v1[k] * (tau**3 - tau**2))
+        x_turn = hermite.values(hermite.turning_point(x0[k], x1[k], v0[k], v1[k]), x0[k], x1[k], v0[k], v1[k])
         if rate[k] > 0:                       # out, then in: work up to the turning point
             increments[k] = work_function(x_turn) - work_function(x0[k])
         else:                                 # in, then out: work from the turning point

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..formulations import Baumgarte
+from ..simulation import simulate
 from ..slider_crank import CASES, READINGS, classify_motion, get_case, initial_state, slider_crank_system
 
 __all__ = ["ReadingOutcome", "reading_outcomes"]
@@ -52,9 +54,6 @@ def reading_outcomes(t_end=20.0, formulation=None, method="LSODA", rtol=1e-8, at
     -------
     list of ReadingOutcome
     """
-    from ..formulations import Baumgarte
-    from ..simulation import simulate
-
     formulation = Baumgarte(10.0, 10.0) if formulation is None else formulation
     rows = []
     for name in readings or READINGS:

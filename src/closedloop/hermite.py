@@ -1,0 +1,105 @@
+"""The cubic Hermite interpolant over one step, and its roots: written once.
+
+Between two step ends a quantity g (a switching function, a coordinate) is
+known with its values ``g0, g1`` and its slopes.  Per unit of the step
+(``u = (t - t0) / (t1 - t0)`` in [0, 1], slopes ``d0, d1`` multiplied by the
+step) the cubic Hermite interpolant is
+
+    p(u) = (1 + 2u)(1 - u)^2 g0 + u (1 - u)^2 d0 + u^2 (3 - 2u) g1 - u^2 (1 - u) d1.
+
+It locates where a switching function crosses zero inside a step (the
+compiled DOP853's events, the basin map's batch integrator), where the path
+meets a change point (:mod:`closedloop.simulation.change_points`), and the
+turning points of a one-sided force's coordinate (:mod:`closedloop.studies.energy`).
+Every function takes numbers or arrays of one shape (K states at once).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["values", "slopes", "first_root", "turning_point", "ROOT_TOLERANCE", "SAMPLES"]
+
+#: Roots are refined until the bracket, or the Newton step, is below this (per unit of the step).
+ROOT_TOLERANCE = 1e-13
+#: The cubic is sampled at this many equal parts of the step first, so that of several roots in
+#: one step the earliest is taken.
+SAMPLES = 8
+_MAX_ITERATIONS = 60
+
+
+def values(u, g0, g1, d0, d1):
+    """p(u) of the interpolant with values g0, g1 and slopes (per unit) d0, d1."""
+    v = 1.0 - u
+    return (1.0 + 2.0 * u) * v * v * g0 + u * v * v * d0 + u * u * (3.0 - 2.0 * u) * g1 - u * u * v * d1
+
+
+def slopes(u, g0, g1, d0, d1):
+    """dp/du of the interpolant."""
+    return 6.0 * u * (u - 1.0) * (g0 - g1) + (1.0 - u) * (1.0 - 3.0 * u) * d0 + u * (3.0 * u - 2.0) * d1
+
+
+def first_root(g0, g1, d0, d1):
+    """The earliest u in [0, 1] where the interpolant is zero, for ends that bracket a zero.
+
+    The cubic is sampled at :data:`SAMPLES` points; in the first part where it
+    changes sign, safeguarded Newton (bisection whenever Newton would leave
+    the bracket) refines the root to :data:`ROOT_TOLERANCE`.  ``g0 == 0``
+    gives 0.  Where the ends do not bracket a zero the result is 1 if no
+    sample changed sign (round-off at the step end).
+
+    Returns a float for numbers, an array for arrays.
+    """
+    g0, g1, d0, d1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (g0, g1, d0, d1)))
+    scalar = g0.ndim == 0
+    g0, g1, d0, d1 = (np.atleast_1d(a).astype(float) for a in (g0, g1, d0, d1))
+    left, right = np.zeros_like(g0), np.ones_like(g0)
+    found = g0 == 0.0
+    root = np.where(found, 0.0, 1.0)
+    pending = np.zeros_like(found)          # a sign change was bracketed: refine it
+    before = g0.copy()
+    for k in range(1, SAMPLES + 1):
+        u = k / SAMPLES
+        after = values(u, g0, g1, d0, d1) if k < SAMPLES else g1
+        exact = ~found & (after == 0.0)
+        root[exact] = u
+        crossing = ~found & ~exact & ((after > 0.0) != (before > 0.0))
+        left[crossing], right[crossing] = (k - 1) / SAMPLES, u
+        pending |= crossing
+        found |= exact | crossing
+        before = after
+    positive_left = values(left, g0, g1, d0, d1) > 0.0
+    u = 0.5 * (left + right)
+    active = pending.copy()
+    for _ in range(_MAX_ITERATIONS):
+        if not active.any():
+            break
+        value = values(u, g0, g1, d0, d1)
+        hit = active & (value == 0.0)
+        root[hit] = u[hit]
+        active &= ~hit
+        to_left = (value > 0.0) == positive_left
+        left = np.where(active & to_left, u, left)
+        right = np.where(active & ~to_left, u, right)
+        slope = slopes(u, g0, g1, d0, d1)
+        newton = u - value / np.where(slope != 0.0, slope, 1.0)
+        u_next = np.where((slope != 0.0) & (newton > left) & (newton < right), newton, 0.5 * (left + right))
+        done = active & ((np.abs(u_next - u) <= ROOT_TOLERANCE) | (right - left <= ROOT_TOLERANCE))
+        root[done] = u_next[done]
+        active &= ~done
+        u = np.where(active, u_next, u)
+    root[active] = u[active]
+    return float(root[0]) if scalar else root
+
+
+def turning_point(g0, g1, d0, d1):
+    """Where the interpolant turns (dp/du = 0) in a step whose end slopes d0, d1 differ in sign.
+
+    dp/du is a quadratic with the values d0, d1 at the ends, so it has one
+    zero there; it is found as the first root of dp/du written in Hermite
+    form (its own slopes are d2p/du2 at the ends).
+    """
+    change = np.asarray(g1, dtype=float) - np.asarray(g0, dtype=float)
+    curvature0 = 6.0 * change - 4.0 * np.asarray(d0, dtype=float) - 2.0 * np.asarray(d1, dtype=float)
+    curvature1 = -6.0 * change + 2.0 * np.asarray(d0, dtype=float) + 4.0 * np.asarray(d1, dtype=float)
+    return first_root(d0, d1, curvature0, curvature1)
