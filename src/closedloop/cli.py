@@ -187,10 +187,11 @@ def run_simulate(args):
         "rtol": rtol,
         "atol": atol,
         "reading": reading.name,
-        "motion": classify_motion(result, phi0),
+        "motion": None if result.warnings else classify_motion(result, phi0),
+        "warnings": result.warnings,
         "final": final,
         "max_constraint_error": result.max_constraint_error,
-        "max_velocity_constraint_error": float(np.max(result.velocity_constraint_error)),
+        "max_velocity_constraint_error": result.max_velocity_constraint_error,
         "nfev": result.nfev,
         "cpu_s": result.cpu_time,
         "stuck_at": result.sticking_intervals[0][0] if result.sticking_intervals else None,
@@ -312,7 +313,7 @@ def _format(summary):
         f"t = 0 .. {summary['t_end']:g} s, reading {summary['reading']}",
         f"formulation {summary['formulation']}{gains}, {summary['method']}, "
         f"rtol = {summary['rtol']:g}, atol = {summary['atol']:g}",
-        f"motion: {summary['motion']}"
+        f"motion: {summary['motion'] or 'not classified (see the warning)'}"
         + (f" (the slider sticks at t = {summary['stuck_at']:.2f} s)" if summary["stuck_at"] is not None else ""),
         f"at t = {summary['t_end']:g} s: phi = {f['phi']:.6f} rad, psi = {f['psi']:.6f} rad, x_C = {f['x']:.6f} m",
         f"{'':{len(str(summary['t_end'])) + 9}}phi' = {f['dphi']:.6f} rad/s, psi' = {f['dpsi']:.6f} rad/s, "
@@ -371,7 +372,9 @@ def main(argv=None):
         print(f"closedloop: error: {error}", file=sys.stderr)
         return 2 if isinstance(error, InputError) else 1
     print(json.dumps(summary, indent=2) if args.json else _format(summary))
-    return 0
+    for warning in summary["warnings"]:
+        print(f"closedloop: warning: {warning}", file=sys.stderr)
+    return 1 if summary["warnings"] else 0
 
 
 def _main_basin(args):

@@ -351,15 +351,24 @@ def get_case(number):
     return CASES[one_of("case", number, CASES)]
 
 
+#: |phi0| above this is refused: a start angle is meant within a few turns (1000 rad is 159 turns,
+#: and sin phi0 keeps 13 digits there; at 1e308 rad it keeps none).
+ANGLE_LIMIT = 1e3
+#: |dphi0| above this is refused: the paper's speeds are below 10 rad/s, and 1000 rad/s (9550 rpm)
+#: already needs some 1e5 steps for 20 s.
+SPEED_LIMIT = 1e3
+
+
 def initial_state(system, phi0, dphi0) -> InitialState:
     """Consistent initial values for crank angle phi0 and speed dphi0.
 
     psi(0) and x_C(0) solve (27)-(28) on the branch with the slider to the
     right of the crank (psi near pi; at phi0 = pi the slider is at the inner
     dead centre x_C = l2 - l1), then psi'(0), x_C'(0) follow from (9).
+    |phi0| <= :data:`ANGLE_LIMIT` and |dphi0| <= :data:`SPEED_LIMIT`.
     """
-    phi0 = finite_number("phi0", phi0, unit="rad")
-    dphi0 = finite_number("dphi0", dphi0, unit="rad/s")
+    phi0 = finite_number("phi0", phi0, minimum=-ANGLE_LIMIT, maximum=ANGLE_LIMIT, unit="rad")
+    dphi0 = finite_number("dphi0", dphi0, minimum=-SPEED_LIMIT, maximum=SPEED_LIMIT, unit="rad/s")
     p = system.parameters
     if abs(p.l1 * math.sin(phi0)) > p.l2:
         raise InputError(
@@ -393,6 +402,12 @@ def motion_codes(excursion):
     return codes if codes.ndim else int(codes)
 
 
+#: The loosest relative tolerance whose motion classify_motion accepts: at rtol = 1e-2 the minimal
+#: formulation (RK45) calls case 4 an oscillation, and at 1e-1 minimal and projected get case 1
+#: wrong; at 1e-3 every formulation gets all four cases right.
+CLASSIFY_RTOL_LIMIT = 1e-3
+
+
 def classify_motion(result, phi0=None) -> str:
     """``"full rotation"`` if the crank ever turns 2 pi beyond its start, else ``"oscillation"``.
 
@@ -402,9 +417,25 @@ def classify_motion(result, phi0=None) -> str:
         Its phi must be unwrapped (continuous), as simulate() returns it.
     phi0 : float, optional
         Starting angle; default the first output value.
+
+    Raises
+    ------
+    InputError
+        If the result can not be classified: it carries warnings (its own
+        residuals say it is meaningless), its phi is not finite, or it was
+        integrated with rtol above :data:`CLASSIFY_RTOL_LIMIT`.
     """
+    warnings = getattr(result, "warnings", [])
+    if warnings:
+        raise InputError(f"result: not classified, {warnings[0]}")
+    tolerance = float(np.max(getattr(result, "rtol", 0.0)))
+    if tolerance > CLASSIFY_RTOL_LIMIT:
+        raise InputError(f"result: not classified, rtol = {tolerance:g} is too loose to tell a full rotation "
+                         f"from an oscillation; rerun with rtol <= {CLASSIFY_RTOL_LIMIT:g}")
     phi = result.coordinate("phi")
     start = phi[0] if phi0 is None else phi0
+    if phi.size == 0 or not (np.all(np.isfinite(phi)) and np.isfinite(start)):
+        raise InputError("result: not classified, its crank angle phi is empty or not finite")
     return MOTIONS[motion_codes(np.max(np.abs(phi - start)))]
 
 

@@ -26,7 +26,7 @@ from ..formulations import Baumgarte
 from . import dop853_runner, solve_ivp_runner
 from .naive import integrate_naive
 from .options import BRANCH_LIMIT, INITIAL_TOLERANCE, MAX_STEPS, SOLVER_METHODS, SWITCHING, run_options
-from .result import SimulationResult, SwitchEvent, multipliers
+from .result import SimulationResult, SwitchEvent, multipliers, residual_warnings
 from .run import Run
 
 __all__ = ["simulate", "SimulationResult", "SwitchEvent", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT",
@@ -139,6 +139,10 @@ def _result(run, start, with_multipliers):
     f_norm, fd_norm = system.constraint_errors(s, sd)
     cpu_time = time.process_time() - start
     lam = multipliers(system, formulation, t, s, sd, modes) if with_multipliers else None
+    step_f, step_fd = run.path.largest_residuals
+    largest_f = max(float(np.max(f_norm, initial=0.0)), step_f)
+    largest_fd = max(float(np.max(fd_norm, initial=0.0)), step_fd)
+    speed = float(np.max(np.abs(sd), initial=0.0))
     return SimulationResult(
         t=t, s=s, sd=sd, constraint_error=f_norm, velocity_constraint_error=fd_norm,
         multipliers=lam, nfev=run.nfev, cpu_time=cpu_time, switch_events=run.switch_events,
@@ -147,4 +151,6 @@ def _result(run, start, with_multipliers):
         formulation=formulation.name, method=options.method_name, rtol=options.rtol, atol=options.atol,
         coordinate_names=tuple(str(c) for c in system.model.coordinates),
         step_sizes=np.asarray(run.step_sizes, dtype=float), work=work_done,
+        step_constraint_error=step_f, step_velocity_constraint_error=step_fd,
+        warnings=residual_warnings(largest_f, largest_fd, speed, options.rtol, options.atol),
     )

@@ -203,6 +203,7 @@ class PathWatch:
         self.system, self.formulation, self.options = system, formulation, options
         self.active = math.isfinite(options.branch_limit)
         self.times, self.states, self.seed = [], [], None
+        self.largest_residuals = (0.0, 0.0)        # max |f|, max |f'| over every step end checked
 
     def start(self, t0, y0, s0):
         """Begin a segment at ``(t0, y0)`` whose coordinates are ``s0`` (the seed of the unpacker)."""
@@ -234,6 +235,9 @@ class PathWatch:
         pairs = [unpack(states[:, k], times[k]) for k in range(times.size)]
         s = np.array([p[0] for p in pairs]).T
         sd = np.array([p[1] for p in pairs]).T
+        f_norm, fd_norm = self.system.constraint_errors(s, sd)
+        self.largest_residuals = (max(self.largest_residuals[0], float(np.max(f_norm))),
+                                  max(self.largest_residuals[1], float(np.max(fd_norm))))
         found = find_change_point(self.system, times, s, sd, failed_at)
         if found is not None:
             raise change_point_error(found, [str(c) for c in self.system.model.coordinates],
