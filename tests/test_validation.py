@@ -51,7 +51,7 @@ def test_t_end_must_be_positive(slider_crank, state, t_end):
 @pytest.mark.parametrize("name", ["rtol", "atol"])
 @pytest.mark.parametrize("value", [0.0, -1e-6, math.nan])
 def test_tolerances_must_be_positive(slider_crank, state, name, value):
-    with pytest.raises(InputError, match=rf"^{name}: must be finite and > 0"):
+    with pytest.raises(InputError, match=rf"^{name}: must be a finite number > 0, got "):
         simulate(slider_crank, state, 1.0, **{name: value})
 
 

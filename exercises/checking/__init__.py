@@ -16,11 +16,16 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-__all__ = ["Check", "NotAnswered", "numeric", "choice", "symbolic", "scaled", "another_letter", "make_check"]
+__all__ = ["Check", "NotAnswered", "WrongKind", "numeric", "choice", "symbolic", "scaled", "another_letter",
+           "make_check"]
 
 
 class NotAnswered(Exception):
     """The exercise still holds its placeholder ``...``."""
+
+
+class WrongKind(Exception):
+    """The answer is not the kind of thing the exercise asks for (text for a number, say)."""
 
 
 @dataclass(frozen=True)
@@ -57,12 +62,40 @@ class Check:
     def __call__(self, answer) -> bool:
         if answer is Ellipsis:
             raise NotAnswered(f"Exercise {self.label} is not yet answered: replace the ... with your answer.")
+        expected = self.expected_value()        # an error here is the book's, not the student's: it is raised
         try:
-            right = bool(self.compare(answer, self.expected_value()))
-        except Exception:                       # an answer of the wrong kind is a wrong answer
-            right = False
+            right = bool(self.compare(answer, expected))
+        except WrongKind as wrong:
+            print(f"Exercise {self.label}: {wrong}.")
+            return False
+        except Exception as error:              # the answer broke the comparison: not the kind expected
+            print(f"Exercise {self.label}: this answer can not be compared with the expected one "
+                  f"({type(error).__name__}); check what kind of answer the exercise asks for.")
+            return False
         print(f"Exercise {self.label}: " + ("right." if right else f"not right yet. Hint: {self.hint}"))
         return right
+
+
+def _numbers(answer, expected):
+    """``answer`` as a float array shaped like ``expected``, or WrongKind saying what was expected."""
+    import numpy as np
+
+    shape = np.shape(expected)
+    wanted = "a number" if shape == () else f"numbers in an array of shape {shape}"
+    if answer is None or isinstance(answer, (str, bytes, bool, np.bool_)):
+        raise WrongKind(f"expected {wanted}, got {answer!r}")
+    try:
+        raw = np.asarray(answer)
+        array = raw.astype(float)
+    except (TypeError, ValueError):
+        raise WrongKind(f"expected {wanted}, got {type(answer).__name__}") from None
+    if raw.dtype.kind not in "iuf":
+        raise WrongKind(f"expected {wanted}, got {type(answer).__name__} of {raw.dtype}")
+    if array.shape != shape:
+        raise WrongKind(f"expected {wanted}, got shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise WrongKind(f"expected finite {wanted}, got {answer!r}")
+    return array
 
 
 def numeric(rtol=1e-6, atol=0.0):
@@ -70,15 +103,16 @@ def numeric(rtol=1e-6, atol=0.0):
     import numpy as np
 
     def compare(answer, expected):
-        answer, expected = np.asarray(answer, dtype=float), np.asarray(expected, dtype=float)
-        return answer.shape == expected.shape and bool(np.all(np.isfinite(answer))) and \
-            bool(np.allclose(answer, expected, rtol=rtol, atol=atol))
+        answer, expected = _numbers(answer, expected), np.asarray(expected, dtype=float)
+        return bool(np.allclose(answer, expected, rtol=rtol, atol=atol))
     return compare
 
 
 def choice(answer, expected):
     """Compare a short text answer (a letter, a word), ignoring case and spaces."""
-    return str(answer).strip().lower() == str(expected).strip().lower()
+    if not isinstance(answer, str):
+        raise WrongKind(f"expected a letter or a word in quotes, such as 'a', got {answer!r}")
+    return answer.strip().lower() == str(expected).strip().lower()
 
 
 def symbolic(rtol=1e-9, points=5, seed=2018):
@@ -91,6 +125,8 @@ def symbolic(rtol=1e-9, points=5, seed=2018):
     import sympy as sp
 
     def compare(answer, expected):
+        if answer is None or isinstance(answer, (str, bytes, bool)):
+            raise WrongKind(f"expected a sympy expression or matrix, got {answer!r}")
         answer, expected = sp.Matrix([answer]) if not hasattr(answer, "shape") else sp.Matrix(answer), \
             sp.Matrix([expected]) if not hasattr(expected, "shape") else sp.Matrix(expected)
         names = sorted({str(symbol) for symbol in expected.free_symbols})

@@ -27,6 +27,7 @@ from .errors import InputError
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
 from .model import MultibodyModel, System
+from .simulation import SimulationResult
 from .validation import finite_number, instance_of, one_of
 
 __all__ = [
@@ -425,10 +426,11 @@ def classify_motion(result, phi0=None) -> str:
         residuals say it is meaningless), its phi is not finite, or it was
         integrated with rtol above :data:`CLASSIFY_RTOL_LIMIT`.
     """
-    warnings = getattr(result, "warnings", [])
+    instance_of("result", result, SimulationResult)
+    warnings = result.warnings
     if warnings:
         raise InputError(f"result: not classified, {warnings[0]}")
-    tolerance = float(np.max(getattr(result, "rtol", 0.0)))
+    tolerance = float(np.max(result.rtol))
     if tolerance > CLASSIFY_RTOL_LIMIT:
         raise InputError(f"result: not classified, rtol = {tolerance:g} is too loose to tell a full rotation "
                          f"from an oscillation; rerun with rtol <= {CLASSIFY_RTOL_LIMIT:g}")

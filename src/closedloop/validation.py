@@ -17,7 +17,7 @@ import numpy as np
 from .errors import InputError
 
 __all__ = ["finite_number", "positive_number", "integer", "positive_integer", "one_of", "finite_array", "instance_of",
-           "shown"]
+           "is_real", "shown"]
 
 
 def shown(value):
@@ -27,7 +27,8 @@ def shown(value):
     return repr(value)
 
 
-def _is_real(value):
+def is_real(value):
+    """True for a real number (numpy scalars included), never for bool, str or None."""
     return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
 
 
@@ -67,7 +68,7 @@ def finite_number(name, value, *, minimum=None, maximum=None, strict=False, unit
     InputError
         ``"{name}: must be a finite number{range}, got {value}"``.
     """
-    if _is_real(value):
+    if is_real(value):
         number = float(value)
         inside = np.isfinite(number)
         if inside and minimum is not None:
@@ -143,6 +144,8 @@ def finite_array(name, value, *, size=None):
     InputError
         ``"{name}: need {size} values, got {k}"`` or ``"{name}: must be finite, got {values}"``.
     """
+    if value is None or isinstance(value, (str, bytes, bool, np.bool_)):
+        raise InputError(f"{name}: must be finite numbers, got {shown(value)}")
     try:
         array = np.atleast_1d(np.asarray(value, dtype=float))
     except (TypeError, ValueError):

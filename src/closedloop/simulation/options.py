@@ -13,6 +13,7 @@ from ..errors import InputError
 from ..formulations import Formulation
 from ..kinematics import InitialState
 from ..methods import IMPLICIT_METHODS, SOLVER_METHODS
+from ..validation import finite_array, finite_number, is_real, positive_integer, shown
 from . import dop853
 
 __all__ = ["RunOptions", "run_options", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT", "MAX_STEPS",
@@ -65,24 +66,40 @@ class RunOptions:
         return self.method == dop853.METHOD
 
 
-def _finite_and_positive(value):
-    """True for a finite number > 0, or an array of them (a float is checked without numpy)."""
-    if isinstance(value, float):
-        return math.isfinite(value) and value > 0
-    return bool(np.all(np.isfinite(value)) and np.all(np.asarray(value) > 0))
+#: The tightest relative tolerance float64 can deliver: 100 machine epsilons (scipy's solve_ivp
+#: raises a smaller rtol to this with a warning; simulate refuses it, so that a run never claims
+#: an accuracy it did not get).
+RTOL_FLOOR = 100 * float(np.finfo(float).eps)
+
+
+def _tolerance(name, value, floor=None):
+    """A tolerance: a number, or an array of them, finite and > 0 (and >= ``floor``)."""
+    if is_real(value):
+        number = finite_number(name, value, minimum=0.0, strict=True)
+        tolerances = np.array([number])
+    else:
+        tolerances = number = finite_array(name, value)
+        if tolerances.size == 0 or np.any(tolerances <= 0):
+            raise InputError(f"{name}: must be finite numbers > 0, got {tolerances}")
+    if floor is not None and np.min(tolerances) < floor:
+        raise InputError(f"{name}: must be >= {floor:.3g}, the tightest float64 can deliver (100 machine "
+                         f"epsilons), got {np.min(tolerances):g}")
+    return number
 
 
 def _check_times(t_start, t_end, rtol, atol, sticking_resolution, branch_limit):
-    for name, value in (("t_start", t_start), ("t_end", t_end)):
-        if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value)):
-            raise InputError(f"{name}: must be a finite number, got {value!r}")
+    """The checked ``(t_start, t_end, rtol, atol, sticking_resolution, branch_limit)``."""
+    t_start = finite_number("t_start", t_start, unit="s")
+    t_end = finite_number("t_end", t_end, unit="s")
     if not t_end > t_start:
-        raise InputError(f"t_end: must be > t_start = {t_start:g}, got {t_end:g}")
-    for name, value in (("rtol", rtol), ("atol", atol), ("sticking_resolution", sticking_resolution)):
-        if not _finite_and_positive(value):
-            raise InputError(f"{name}: must be finite and > 0, got {value!r}")
-    if not (isinstance(branch_limit, (int, float, np.floating)) and branch_limit > 0):
-        raise InputError(f"branch_limit: must be a number > 0 (math.inf turns the guard off), got {branch_limit!r}")
+        raise InputError(f"t_end: must be > t_start = {t_start:g} s, got {t_end:g}")
+    rtol, atol = _tolerance("rtol", rtol, RTOL_FLOOR), _tolerance("atol", atol)
+    sticking_resolution = finite_number("sticking_resolution", sticking_resolution, minimum=0.0, strict=True,
+                                        unit="s")
+    if not (is_real(branch_limit) and branch_limit > 0):
+        raise InputError(f"branch_limit: must be a number > 0 (math.inf turns the guard off), got "
+                         f"{shown(branch_limit)}")
+    return t_start, t_end, rtol, atol, sticking_resolution, float(branch_limit)
 
 
 def _check_method(formulation, method, switching, options):
@@ -138,8 +155,10 @@ def _check_initial_state(system, initial_state):
 def _check_output_times(t_eval, t_start, t_end):
     if t_eval is None:
         return None
-    t_eval = np.asarray(t_eval, dtype=float)
-    if t_eval.ndim != 1 or np.any(np.diff(t_eval) <= 0) or t_eval[0] < t_start or t_eval[-1] > t_end:
+    t_eval = finite_array("t_eval", t_eval)
+    if t_eval.size == 0:
+        raise InputError("t_eval: holds no time; give at least one, or None for the step ends")
+    if np.any(np.diff(t_eval) <= 0) or t_eval[0] < t_start or t_eval[-1] > t_end:
         raise InputError(f"t_eval: must increase strictly within [{t_start:g}, {t_end:g}]")
     return t_eval
 
@@ -148,12 +167,11 @@ def run_options(system, initial_state, formulation, *, t_start, t_end, method, r
                 stop_when, sticking_resolution, max_segments, switching, max_nfev, max_steps, work, branch_limit,
                 solver_options):
     """Check every argument of :func:`simulate` (raising InputError) and return them as RunOptions."""
-    _check_times(t_start, t_end, rtol, atol, sticking_resolution, branch_limit)
+    t_start, t_end, rtol, atol, sticking_resolution, branch_limit = _check_times(
+        t_start, t_end, rtol, atol, sticking_resolution, branch_limit)
     _check_method(formulation, method, switching, solver_options)
-    if max_nfev is not None and not (isinstance(max_nfev, (int, np.integer)) and max_nfev > 0):
-        raise InputError(f"max_nfev: must be a whole number > 0, got {max_nfev!r}")
-    if not (isinstance(max_steps, (int, np.integer)) and max_steps >= 1):
-        raise InputError(f"max_steps: must be an integer >= 1, got {max_steps!r}")
+    max_nfev = None if max_nfev is None else positive_integer("max_nfev", max_nfev)
+    max_steps = positive_integer("max_steps", max_steps)
     _check_initial_state(system, initial_state)
     t_eval = _check_output_times(t_eval, t_start, t_end)
     if stop_when is not None and not callable(stop_when):

@@ -153,8 +153,16 @@ class Run:
                      for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
 
     def decide(self, t, s, sd, mode, i):
-        """The branch of switch i at a state on its surface: (new mode, action)."""
+        """The branch of switch i at a state on its surface: (new mode, action).
+
+        Where the rates vanish on both branches (a degenerate contact) the branches'
+        own motions over :data:`~closedloop.simulation.switching.PROBE_TIME` decide.
+        """
         off, on = self.side_rates(t, s, sd, mode, i)
+        if rule.uninformative(off, on, 1.0 + np.max(np.abs(np.concatenate((s, sd))))):
+            off, on = (rule.probe(self.force.switching_functions, lambda time, q, qd, b=branch: self._accelerations(
+                time, q, qd, b), t, s, sd)[i] / rule.PROBE_TIME
+                for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
         side, sticks = rule.decide(off, on, mode[i])
         if sticks:
             if not self.force.can_stick[i]:

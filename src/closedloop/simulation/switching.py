@@ -43,7 +43,8 @@ from ..errors import IntegrationError
 
 __all__ = ["RATE_STEP", "SURFACE", "MIN_PROGRESS", "MAX_STALLS", "RELEASE_XTOL", "switching_rate", "decide",
            "on_surface", "release_margin", "side_after_release", "locate_release", "no_progress",
-           "refuse_sliding", "chattering_error", "forcing_period"]
+           "refuse_sliding", "chattering_error", "forcing_period", "RATE_FLOOR", "PROBE_TIME", "uninformative",
+           "probe"]
 
 #: Forward-difference step of the rates dh/dt along the motion [s].
 RATE_STEP = 1e-7
@@ -55,6 +56,16 @@ MIN_PROGRESS = 1e-12
 MAX_STALLS = 50
 #: Accuracy of a located release time [s].
 RELEASE_XTOL = 1e-12
+#: Rates of a switching function at or below RATE_FLOOR x (1 + max|state|) on both branches say
+#: nothing: the contact is degenerate (a start at rest at a dead centre, where x_C' = 0 and x_C'' = 0
+#: whatever the branch), and the branch is chosen by probing (see probe_time).
+RATE_FLOOR = 1e-10
+#: How long each branch's own motion is followed from a degenerate contact [s]; its switching
+#: value then plays the part of the rate in decide().  At a dead centre at rest x_C' grows like
+#: t^3, so after 1e-3 s it is about 1e-9 of the speed scale: far above round-off.
+PROBE_TIME = 1e-3
+#: Runge-Kutta (4th order) steps of a probe.
+PROBE_STEPS = 8
 
 
 def switching_rate(h, t, s, sd, sdd, h_now=None):
@@ -93,6 +104,36 @@ def decide(off, on, side):
     if new_side.ndim == 0:
         return bool(new_side), bool(sticks)
     return new_side, sticks
+
+
+def uninformative(off, on, scale):
+    """Whether the rates on both branches vanish (to :data:`RATE_FLOOR` x ``scale``): probe instead."""
+    return max(abs(float(off)), abs(float(on))) <= RATE_FLOOR * scale
+
+
+def probe(h, accelerations, t, s, sd, duration=PROBE_TIME, steps=PROBE_STEPS):
+    """The switching values ``h`` after following ``s'' = accelerations(t, s, s')`` for ``duration``.
+
+    Classical Runge-Kutta with ``steps`` steps: where the first-order rates of a
+    contact vanish on both branches, the sign of h after a short stretch of each
+    branch's own motion says which way that motion leaves the surface, and
+    ``h / duration`` takes the place of the rate in :func:`decide`.
+    """
+    step = duration / steps
+    y = np.concatenate((s, sd))
+    n = s.size
+
+    def slope(time, state):
+        return np.concatenate((state[n:], accelerations(time, state[:n], state[n:])))
+
+    for k in range(steps):
+        time = t + k * step
+        k1 = slope(time, y)
+        k2 = slope(time + step / 2, y + step / 2 * k1)
+        k3 = slope(time + step / 2, y + step / 2 * k2)
+        k4 = slope(time + step, y + step * k3)
+        y = y + step / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return np.asarray(h(t + duration, y[:n], y[n:]))
 
 
 def on_surface(h, scale):

@@ -1,0 +1,71 @@
+"""Every exercise check answers any value a student may type: right, not right yet, or the wrong kind.
+
+Never a traceback, never a wrong kind of answer taken for a right one ("1" or True for 1), and an
+answer of the wrong kind (text for a number, None, NaN) is told so instead of "not right yet".
+"""
+
+import importlib
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+EXERCISES = Path(__file__).resolve().parents[1] / "exercises"
+sys.path.insert(0, str(EXERCISES))
+checking = importlib.import_module("checking")
+CHAPTERS = sorted(path.stem for path in (EXERCISES / "checking").glob("ch[0-9][0-9].py"))
+CHECKS = [check for chapter in CHAPTERS for check in importlib.import_module(f"checking.{chapter}").CHECKS.values()]
+
+ANYTHING = st.one_of(st.none(), st.booleans(), st.text(max_size=6), st.integers(-10**6, 10**6),
+                     st.floats(allow_nan=True, allow_infinity=True), st.lists(st.floats(), max_size=4),
+                     st.tuples(st.integers(), st.text(max_size=2)), st.dictionaries(st.text(max_size=2),
+                                                                                   st.integers(), max_size=2))
+
+
+def verdict(check, answer, capsys):
+    right = check(answer)
+    lines = capsys.readouterr().out.splitlines()
+    assert isinstance(right, bool)
+    assert len(lines) == 1 and lines[0].startswith(f"Exercise {check.label}: ")
+    return right, lines[0]
+
+
+@pytest.mark.parametrize("check", CHECKS, ids=lambda check: check.label)
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(answer=ANYTHING)
+def test_any_answer_gets_one_line_and_no_traceback(check, answer, capsys):
+    right, _ = verdict(check, answer, capsys)
+    if right:                                        # only a value equal to the expected one may pass
+        assert not isinstance(answer, (str, bool)) or check.compare is checking.choice
+
+
+NUMERIC = [check for check in CHECKS if np.ndim(check.expected_value()) == 0
+           and isinstance(check.expected_value(), (int, float, np.number)) and check.compare is not checking.choice]
+
+
+@pytest.mark.parametrize("check", NUMERIC[:6], ids=lambda check: check.label)
+@pytest.mark.parametrize("answer", [None, "1", True, [1.0, 2.0], math.nan, "abc"],
+                         ids=["None", "text 1", "True", "list", "NaN", "text"])
+def test_a_number_check_tells_the_wrong_kind(check, answer, capsys):
+    right, line = verdict(check, answer, capsys)
+    assert not right
+    assert "expected" in line and "not right yet" not in line
+
+
+def test_text_and_true_are_not_one():
+    check = checking.Check("x.1", lambda: 1, checking.numeric(0, 0), "hint", lambda e: e + 1)
+    assert check(1) and check(np.int64(1)) and check(1.0)
+    assert not check("1") and not check(True) and not check(np.bool_(True))
+
+
+def test_a_failure_of_the_expected_value_is_the_books_error_not_a_wrong_answer():
+    def broken():
+        raise ZeroDivisionError("the book's own bug")
+
+    check = checking.Check("x.2", broken, checking.numeric(), "hint", lambda e: e + 1)
+    with pytest.raises(ZeroDivisionError):
+        check(1.0)
