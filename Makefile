@@ -42,7 +42,7 @@ test: $(STAMP) browser
 student: $(STAMP)
 	$(BIN)/python exercises/make_student.py _build/student
 
-# Error against run time of every formulation and method (closedloop.benchmark); prints the tables.
+# Error against run time of every formulation and method (closedloop.studies.benchmark); prints the tables.
 benchmark: $(STAMP)
 	$(BIN)/closedloop benchmark
 

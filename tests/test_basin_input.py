@@ -1,0 +1,44 @@
+"""The basin map refuses what it can not compute right, before any work: coarse steps, huge maps."""
+
+import math
+
+import numpy as np
+import pytest
+
+from closedloop import InputError
+from closedloop.cli import main
+from closedloop.studies.basin import MAX_ANGLE_PER_STEP, MAX_CELL_STEPS, integrate_outcomes
+from closedloop.slider_crank import slider_crank_system
+
+
+@pytest.fixture(scope="module")
+def system():
+    return slider_crank_system()
+
+
+def test_a_step_too_coarse_for_the_forcing_is_refused(system):
+    """The drive's ripple has period 1 s: 2 pi rad/s x step must stay <= 0.5 rad."""
+    bound = MAX_ANGLE_PER_STEP / (2 * math.pi)
+    with pytest.raises(InputError, match=rf"^step: 10 s can not resolve this map: its fastest rate is 6.28 rad/s "
+                                         rf"\(the forcing's 2 pi / period\), so the step must be <= {bound:.3g} s"):
+        integrate_outcomes(system, [1.0], [1.0], 20.0, 10.0)
+    outcome = integrate_outcomes(system, [1.0], [1.0], 1.0, 0.999 * bound)       # just inside: it runs
+    assert outcome.codes.shape == (1,)
+
+
+def test_a_step_too_coarse_for_the_fastest_start_is_refused(system):
+    with pytest.raises(InputError, match=r"fastest rate is 50 rad/s \(the largest starting speed \|dphi0\|\), "
+                                         r"so the step must be <= 0.01 s"):
+        integrate_outcomes(system, [1.0, 2.0], [1.0, -50.0], 1.0, 0.02)
+
+
+def test_a_map_of_hours_is_refused(system):
+    cells = 1000
+    with pytest.raises(InputError, match=r"cell-steps, more than the 1e\+09 a map may take"):
+        integrate_outcomes(system, np.zeros(cells), np.zeros(cells), MAX_CELL_STEPS, 0.01)
+
+
+def test_the_command_line_refuses_a_coarse_step_in_one_line(capsys):
+    assert main(["basin", "--phi0", "0:2pi:8", "--dphi0", "0:6:8", "--step", "10"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("closedloop: error: step: 10 s can not resolve this map")
