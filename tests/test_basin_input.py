@@ -42,3 +42,9 @@ def test_the_command_line_refuses_a_coarse_step_in_one_line(capsys):
     assert main(["basin", "--phi0", "0:2pi:8", "--dphi0", "0:6:8", "--step", "10"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("closedloop: error: step: 10 s can not resolve this map")
+
+
+def test_a_grid_of_absurd_speeds_is_refused_naming_dphi0(capsys):
+    assert main(["basin", "--phi0", "0:2pi:3", "--dphi0", "0:1e300:3"]) == 2
+    assert capsys.readouterr().err == ("closedloop: error: dphi0: values must lie within -1000 .. 1000 rad/s, "
+                                       "got up to 6.66667e+299\n")

@@ -65,8 +65,8 @@ from ..kinematics import solve_dependent_many
 from ..linalg import orthogonal_complement_many
 from ..simulation import simulate
 from ..simulation import switching as rule
-from ..slider_crank import (DEFAULT_READING, MOTIONS, SliderCrankSystem, get_reading, motion_codes,
-                            slider_crank_system)
+from ..slider_crank import (ANGLE_LIMIT, DEFAULT_READING, MOTIONS, SPEED_LIMIT, SliderCrankSystem, get_reading,
+                            motion_codes, slider_crank_system)
 from ..slider_crank import initial_state as slider_crank_initial_state
 from ..validation import finite_array, positive_number
 
@@ -649,13 +649,18 @@ def _cell_index(values, value):
 
 
 def _check_grid(phi0_values, dphi0_values):
+    """The slider-crank map's grids: increasing, finite, within initial_state's ANGLE_LIMIT and SPEED_LIMIT."""
     arrays = []
-    for name, values in (("phi0", phi0_values), ("dphi0", dphi0_values)):
+    for name, values, limit, unit in (("phi0", phi0_values, ANGLE_LIMIT, "rad"),
+                                      ("dphi0", dphi0_values, SPEED_LIMIT, "rad/s")):
         if np.ndim(values) > 1 or np.size(values) == 0:
             raise InputError(f"{name}: need a non-empty list of values")
         values = finite_array(name, values)
         if values.size > 1 and np.any(np.diff(values) <= 0):
             raise InputError(f"{name}: values must increase strictly")
+        if np.max(np.abs(values)) > limit:
+            raise InputError(f"{name}: values must lie within -{limit:g} .. {limit:g} {unit}, got up to "
+                             f"{np.max(np.abs(values)):g}")
         arrays.append(values)
     return arrays
 
