@@ -50,6 +50,8 @@ def first_root(g0, g1, d0, d1):
 
     Returns a float for numbers, an array for arrays.
     """
+    if all(isinstance(a, (int, float)) for a in (g0, g1, d0, d1)):
+        return _first_root_of_one(float(g0), float(g1), float(d0), float(d1))
     g0, g1, d0, d1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (g0, g1, d0, d1)))
     scalar = g0.ndim == 0
     g0, g1, d0, d1 = (np.atleast_1d(a).astype(float) for a in (g0, g1, d0, d1))
@@ -90,6 +92,41 @@ def first_root(g0, g1, d0, d1):
         u = np.where(active, u_next, u)
     root[active] = u[active]
     return float(root[0]) if scalar else root
+
+
+def _first_root_of_one(g0, g1, d0, d1):
+    """:func:`first_root` for four Python floats, the same steps without arrays (the compiled
+    DOP853 locates one event at a time, where numpy's per-call cost would dominate)."""
+    if g0 == 0.0:
+        return 0.0
+    left, before = 0.0, g0
+    for k in range(1, SAMPLES + 1):
+        right = k / SAMPLES
+        after = values(right, g0, g1, d0, d1) if k < SAMPLES else g1
+        if after == 0.0:
+            return right
+        if (after > 0.0) != (before > 0.0):
+            break
+        left, before = right, after
+    else:
+        return 1.0
+    positive_left = values(left, g0, g1, d0, d1) > 0.0
+    u = 0.5 * (left + right)
+    for _ in range(_MAX_ITERATIONS):
+        value = values(u, g0, g1, d0, d1)
+        if value == 0.0:
+            return u
+        if (value > 0.0) == positive_left:
+            left = u
+        else:
+            right = u
+        slope = slopes(u, g0, g1, d0, d1)
+        newton = u - value / slope if slope != 0.0 else left - 1.0
+        u_next = newton if left < newton < right else 0.5 * (left + right)
+        if abs(u_next - u) <= ROOT_TOLERANCE or right - left <= ROOT_TOLERANCE:
+            return u_next
+        u = u_next
+    return u
 
 
 def turning_point(g0, g1, d0, d1):

@@ -33,6 +33,10 @@ class StateUnpacker:
     def seed(self, s_start):
         """Start of a segment at coordinates ``s_start`` (nothing to remember here)."""
 
+    def many(self, states, times):
+        """``(s, s')`` as n x K arrays for K states given as the columns of ``states``."""
+        return states[:self.n], states[self.n:]
+
 
 class Formulation:
     """Base class of the formulations; its docstring is their contract.
@@ -49,7 +53,8 @@ class Formulation:
        entries of ``y`` (for error messages).
     3. ``unpacker(system) -> unpack`` returns a new object, one per integration
        segment, with ``unpack(y, t=None) -> (s, s')`` and ``unpack.seed(s0)``,
-       called once at the segment's start.  An unpacker may keep state within
+       called once at the segment's start, and ``unpack.many(Y, times)`` for K
+       states as columns at once (n x K arrays).  An unpacker may keep state within
        its segment (minimal coordinates warm-start Newton), never across
        segments or runs.
     4. ``make_rhs(system, mode, unpack) -> rhs`` returns ``rhs(t, y)``, the

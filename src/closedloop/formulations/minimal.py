@@ -143,6 +143,11 @@ class MinimalUnpacker:
         self._last_y, self._last_s, self._last_R = None, s_start, None
         self._side = np.sign(np.linalg.det(self.system.jacobian(s_start)[:, self.system.z_index]))
 
+    def many(self, states, times):
+        """``(s, s')`` as n x K arrays for K states (columns), in order along the path (warm-started)."""
+        pairs = [self(states[:, k], times[k]) for k in range(states.shape[1])]
+        return np.array([p[0] for p in pairs]).T, np.array([p[1] for p in pairs]).T
+
     def with_R(self, y, t=None):
         """``(s, R)`` at ``y``: the coordinates and R of (20) there (for the right-hand side)."""
         system = self.system

@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from ..errors import IntegrationError
+from ..errors import ClosedLoopError, IntegrationError
 from ..formulations import Baumgarte
 from . import dop853_runner, solve_ivp_runner
 from .naive import integrate_naive
@@ -128,7 +128,12 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
             raise error
     else:
         runner = dop853_runner if run_settings.compiled else solve_ivp_runner
-        run.integrate(runner.segment, t_start, initial_state.s, initial_state.sd)
+        try:
+            run.integrate(runner.segment, t_start, initial_state.s, initial_state.sd)
+        except ClosedLoopError:
+            run.path.flush()                    # a change point passed before is the real cause
+            raise
+        run.path.flush()
     return _result(run, start, with_multipliers=run_settings.multipliers)
 
 

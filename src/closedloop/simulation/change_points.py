@@ -131,7 +131,7 @@ def _refine(system, times, s, sd, k, beyond=None):
     return best
 
 
-def find_change_point(system, times, s, sd, failed_at=None, limit=None):
+def find_change_point(system, times, s, sd, failed_at=None, limit=None, evaluated=None):
     """The first change point along a path given at its step ends, or None.
 
     Parameters
@@ -143,6 +143,8 @@ def find_change_point(system, times, s, sd, failed_at=None, limit=None):
         Positions and velocities there.
     limit : float, optional
         The bound on the Kantorovich number (default :data:`CHANGE_POINT_LIMIT`).
+    evaluated : tuple, optional
+        ``system.constraints_and_jacobian_many(s)``, when the caller has it.
     failed_at : float, optional
         Where the run failed after its last step end (the formulation could not
         go on): the path is then also followed, extrapolated, up to that time.
@@ -154,7 +156,7 @@ def find_change_point(system, times, s, sd, failed_at=None, limit=None):
     limit = CHANGE_POINT_LIMIT if limit is None else limit
     if times.size < 2:
         return None
-    residuals, jacobians = system.constraints_and_jacobian_many(s)
+    residuals, jacobians = system.constraints_and_jacobian_many(s) if evaluated is None else evaluated
     smallest, largest = singular_values(jacobians)
     error = np.maximum(np.sqrt(np.sum(residuals * residuals, axis=0)),
                        EPSILON * (1.0 + np.max(np.abs(s), axis=0)))
@@ -190,19 +192,27 @@ def change_point_error(found, names, method_name):
 
 
 class PathWatch:
-    """The step ends of one segment, as a runner records them, checked for change points.
+    """The step ends of a run, as its runners record them, checked for change points.
 
-    Active unless the run's ``branch_limit`` is infinite.  The runner calls
-    :meth:`start` at each segment's start, :meth:`record` after each accepted
-    step (or passes a segment's step ends to :meth:`check` at once), and
-    :meth:`check_recorded` when a segment failed, so that a change point passed
-    before the failure is named as its cause.
+    Active unless the run's ``branch_limit`` is infinite.  A runner calls
+    :meth:`start` at each segment's start and :meth:`record` after each accepted
+    step, then :meth:`check_recorded` at the segment's end (or passes a segment's
+    step ends to :meth:`check` at once).  The segments' positions and velocities
+    are kept and checked together by :meth:`flush` (one batched evaluation per
+    run instead of one per segment): when a segment failed (``failed_at``),
+    when many step ends are pending, and by :func:`~closedloop.simulate` at the
+    end of the run or when it fails, so that a change point passed before any
+    failure is named as its cause.
     """
+
+    #: Step ends kept before they are checked.
+    PENDING = 20_000
 
     def __init__(self, system, formulation, options):
         self.system, self.formulation, self.options = system, formulation, options
         self.active = math.isfinite(options.branch_limit)
         self.times, self.states, self.seed = [], [], None
+        self.pending = []                          # (times, s, sd) of segments not yet checked
         self.largest_residuals = (0.0, 0.0)        # max |f|, max |f'| over every step end checked
 
     def start(self, t0, y0, s0):
@@ -216,7 +226,7 @@ class PathWatch:
         self.states.append(y.copy())
 
     def check(self, times, states, t_stop=None, y_stop=None, failed_at=None):
-        """Raise at the first change point along step ends ``times`` (K,), ``states`` (m, K).
+        """Keep a segment's step ends ``times`` (K,), ``states`` (m, K); check them if it failed.
 
         Step ends past ``t_stop`` (the step that overshot a switch) are left out and
         ``(t_stop, y_stop)`` closes the path.
@@ -232,18 +242,28 @@ class PathWatch:
             states = states[:-1]
         unpack = self.formulation.unpacker(self.system)
         unpack.seed(self.seed)
-        pairs = [unpack(states[:, k], times[k]) for k in range(times.size)]
-        s = np.array([p[0] for p in pairs]).T
-        sd = np.array([p[1] for p in pairs]).T
-        f_norm, fd_norm = self.system.constraint_errors(s, sd)
-        self.largest_residuals = (max(self.largest_residuals[0], float(np.max(f_norm))),
-                                  max(self.largest_residuals[1], float(np.max(fd_norm))))
-        found = find_change_point(self.system, times, s, sd, failed_at)
-        if found is not None:
-            raise change_point_error(found, [str(c) for c in self.system.model.coordinates],
-                                     self.options.method_name)
+        self.pending.append((times, *unpack.many(states, times)))
+        if failed_at is not None or sum(piece[0].size for piece in self.pending) > self.PENDING:
+            self.flush(failed_at)
 
     def check_recorded(self, t_stop=None, y_stop=None, failed_at=None):
         """:meth:`check` over the step ends recorded since :meth:`start`."""
         if self.active and len(self.times) > 1:
             self.check(self.times, np.column_stack(self.states), t_stop, y_stop, failed_at)
+
+    def flush(self, failed_at=None):
+        """Check the kept step ends: raise at the first change point along them."""
+        if not self.pending:
+            return
+        times = np.concatenate([piece[0] for piece in self.pending])
+        s = np.concatenate([piece[1] for piece in self.pending], axis=1)
+        sd = np.concatenate([piece[2] for piece in self.pending], axis=1)
+        self.pending = []
+        residuals, jacobians = self.system.constraints_and_jacobian_many(s)
+        velocity = np.einsum("ijk,jk->ik", jacobians, sd)
+        self.largest_residuals = (max(self.largest_residuals[0], float(np.sqrt(np.max(np.sum(residuals ** 2, 0))))),
+                                  max(self.largest_residuals[1], float(np.sqrt(np.max(np.sum(velocity ** 2, 0))))))
+        found = find_change_point(self.system, times, s, sd, failed_at, evaluated=(residuals, jacobians))
+        if found is not None:
+            raise change_point_error(found, [str(c) for c in self.system.model.coordinates],
+                                     self.options.method_name)

@@ -77,8 +77,9 @@ __all__ = ["BasinMap", "basin_map", "integrate_outcomes", "reference_outcomes", 
 DEFAULT_STEP = 0.02
 #: The largest angle the fastest rate of a map may turn in one step [rad] (see _check_step).
 #: Measured on an 8 x 8 map of the slider-crank (dphi0 < 6 rad/s, forcing period 1 s) against
-#: simulate: steps 0.02, 0.05 and 0.1 s give it cell for cell, 0.2 s gets 1 cell wrong, 1 s 4.
-MAX_ANGLE_PER_STEP = 0.5
+#: simulate: steps 0.02, 0.05 and 0.1 s give it cell for cell, 0.2 s gets 1 cell wrong, 1 s 4;
+#: the book's convergence study (chapter 12) starts at 0.08 s, 0.5 rad of the forcing.
+MAX_ANGLE_PER_STEP = 0.6
 #: The most cell-steps (cells x t_end / step) a map may ask for: the book's 60 x 60 map over 20 s
 #: is 3.6e6 and takes about half a minute on one core, so 1e9 would take hours.
 MAX_CELL_STEPS = 1e9
