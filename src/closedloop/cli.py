@@ -14,6 +14,8 @@ figure without matplotlib is refused before the run. A failed integration or
 a failed write is one line too, with exit status 1. Files are written
 atomically: a failed write leaves the previous file as it was. ``--json -``
 writes the JSON to standard output (the summary then goes to stderr).
+Negative numbers may follow their option with a space (``--dphi0 -1e-3``) or
+an equals sign (``--dphi0=-1e-3``).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -41,11 +44,57 @@ DEFAULT_METHOD = "RK45"
 DEFAULT_FORMULATION = "baumgarte"
 
 
+#: An option's value that argparse would take for an option: ``-1e-3``, ``-.5``, ``-inf``, ``-1:2:4``.
+_NEGATIVE_VALUE = re.compile(r"-(\d|\.\d|inf|nan|pi)", re.IGNORECASE)
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line and no usage dump."""
+    """argparse, but a usage error is one line and no usage dump, and ``--dphi0 -1e-3`` works.
+
+    argparse reads ``-1e-3`` (scientific notation, unlike ``-1`` or ``-0.5``) as an
+    option, so ``--dphi0 -1e-3`` fails with "expected one argument"; here a value
+    that starts with a minus sign and looks like a number, written after an
+    option of this parser that takes one value, is joined to it as ``--dphi0=-1e-3``
+    before argparse reads the line.
+    """
 
     def error(self, message):
         raise InputError(message)
+
+    def __init__(self, *args, **kwargs):
+        self._value_options = []               # option strings that take exactly one value
+        super().__init__(*args, **kwargs)
+
+    def add_argument(self, *args, **kwargs):
+        action = super().add_argument(*args, **kwargs)
+        if action.option_strings and action.nargs is None:
+            self._value_options.extend(action.option_strings)
+        return action
+
+    def parse_known_args(self, args=None, namespace=None):
+        args = sys.argv[1:] if args is None else list(args)
+        return super().parse_known_args(self._join_negative_values(args), namespace)
+
+    def _takes_one_value(self, token):
+        """True if ``token`` is, or (as argparse allows) abbreviates, an option taking one value."""
+        if token in self._value_options:
+            return True
+        named = [name for name in self._value_options if name.startswith(token)]
+        return self.allow_abbrev and token.startswith("--") and len(named) == 1
+
+    def _join_negative_values(self, args):
+        joined, k = [], 0
+        while k < len(args):
+            token = args[k]
+            if token == "--":
+                return joined + args[k:]
+            if k + 1 < len(args) and _NEGATIVE_VALUE.match(args[k + 1]) and self._takes_one_value(token):
+                joined.append(f"{token}={args[k + 1]}")
+                k += 2
+            else:
+                joined.append(token)
+                k += 1
+        return joined
 
 
 def build_parser():
