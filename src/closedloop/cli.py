@@ -14,6 +14,9 @@ figure without matplotlib is refused before the run. A failed integration or
 a failed write is one line too, with exit status 1. Files are written
 atomically: a failed write leaves the previous file as it was. ``--json -``
 writes the JSON to standard output (the summary then goes to stderr).
+Ctrl-C ends the run with the line ``closedloop: interrupted`` and exit status
+130, SIGTERM with ``closedloop: terminated`` and 143; basin's worker
+processes end with it.
 Negative numbers may follow their option with a space (``--dphi0 -1e-3``) or
 an equals sign (``--dphi0=-1e-3``).
 """
@@ -21,11 +24,14 @@ an equals sign (``--dphi0=-1e-3``).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
 import re
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -449,20 +455,88 @@ def run_benchmark(args):
     return "\n".join(lines)
 
 
-def main(argv=None):
-    """Entry point of ``closedloop``; returns the exit status."""
+class _Terminated(BaseException):
+    """SIGTERM, raised in the main process like KeyboardInterrupt for SIGINT (so that ``with`` blocks clean up)."""
+
+
+#: Exit status and line on stderr for each signal (128 + the signal's number, as a shell reports it).
+_SIGNALS = {signal.SIGINT: (KeyboardInterrupt, 130, "interrupted"), signal.SIGTERM: (_Terminated, 143, "terminated")}
+
+
+@contextlib.contextmanager
+def _signals_as_exceptions():
+    """SIGINT raises KeyboardInterrupt and SIGTERM :class:`_Terminated` in this process, once.
+
+    The first signal starts an orderly end (basin's ``with Pool`` terminates its workers);
+    further ones are ignored while it runs. Processes forked meanwhile (basin's workers)
+    inherit the handler: there SIGINT is ignored, the parent ends them, and SIGTERM kills
+    as by default. Signals ignored on entry (``nohup``) stay ignored; the previous handlers
+    are restored on exit.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    parent = os.getpid()
+
+    def handler(signum, frame):
+        if os.getpid() != parent:
+            if signum == signal.SIGTERM:
+                signal.signal(signum, signal.SIG_DFL)
+                os.kill(os.getpid(), signum)
+            return
+        for other in previous:
+            signal.signal(other, signal.SIG_IGN)
+        raise _SIGNALS[signum][0]
+
+    previous = {number: signal.getsignal(number) for number in _SIGNALS}
+    previous = {number: old for number, old in previous.items() if old is not signal.SIG_IGN}
     try:
-        args = build_parser().parse_args(argv)
-        if args.command == "basin":
-            return _main_basin(args)
-        if args.command == "benchmark":
-            text = run_benchmark(args)
-            print(text, file=sys.stderr if args.json == STDOUT else sys.stdout)
-            return 0
-        summary = run_simulate(args)
+        for number in previous:
+            signal.signal(number, handler)
+        yield
+    finally:
+        for number, old in previous.items():
+            signal.signal(number, old)
+
+
+def _error(message):
+    print(f"closedloop: error: {message}", file=sys.stderr)
+
+
+def main(argv=None):
+    """Entry point of ``closedloop``; returns the exit status.
+
+    0 done; 1 the run or a write failed; 2 bad input (nothing computed); 130 Ctrl-C; 143 SIGTERM.
+    Every failure is one line on stderr.
+    """
+    try:
+        with _signals_as_exceptions():
+            return _run(argv)
+    except (KeyboardInterrupt, _Terminated) as stop:
+        _, status, word = next(v for v in _SIGNALS.values() if isinstance(stop, v[0]))
+        print(f"closedloop: {word}", file=sys.stderr)
+        return status
+    except BrokenPipeError:                    # stdout closed early (``| head``): end quietly, as Unix tools do
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     except ClosedLoopError as error:
-        print(f"closedloop: error: {error}", file=sys.stderr)
+        _error(error)
         return 2 if isinstance(error, InputError) else 1
+    except OSError as error:                   # a write outside closedloop.output, e.g. onto standard output
+        _error(f"{error.filename}: {error.strerror}" if error.filename else error.strerror or error)
+        return 1
+
+
+def _run(argv):
+    args = build_parser().parse_args(argv)
+    if args.command == "basin":
+        return _main_basin(args)
+    if args.command == "benchmark":
+        text = run_benchmark(args)
+        print(text, file=sys.stderr if args.json == STDOUT else sys.stdout)
+        return 0
+    summary = run_simulate(args)
     print(json.dumps(summary, indent=2) if args.json else _format(summary))
     return 0
 
