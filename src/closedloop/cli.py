@@ -4,20 +4,34 @@
                         [--method NAME] [--rtol R] [--atol A] [--alpha a --beta b]
                         [--reading NAME] [--json] [--plot FILE.png]
     closedloop basin --phi0 START:STOP:N --dphi0 START:STOP:M [--t-end T] [--step H]
-                     [--workers W] [--json FILE] [--png FILE.png]
-    closedloop benchmark [--quick] [--json FILE] [--figures DIR]
+                     [--workers W] [--json FILE|-] [--png FILE.png]
+    closedloop benchmark [--quick] [--json FILE|-] [--figures DIR]
 
 Bad input is reported as one line on stderr, with exit status 2, before any
-integration starts; a failed integration is one line too, with exit status 1.
+integration starts; output files count as input: a missing or unwritable
+folder, a folder where a file is expected, two options naming one file, or a
+figure without matplotlib is refused before the run. A failed integration or
+a failed write is one line too, with exit status 1. Files are written
+atomically: a failed write leaves the previous file as it was. ``--json -``
+writes the JSON to standard output (the summary then goes to stderr).
+Ctrl-C ends the run with the line ``closedloop: interrupted`` and exit status
+130, SIGTERM with ``closedloop: terminated`` and 143; basin's worker
+processes end with it.
+Negative numbers may follow their option with a space (``--dphi0 -1e-3``) or
+an equals sign (``--dphi0=-1e-3``).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
+import re
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -25,6 +39,8 @@ import numpy as np
 
 from .errors import ClosedLoopError, InputError
 from .methods import SOLVER_METHODS
+from .output import (STDOUT, WriteError, atomic_write, check_distinct, check_file, check_folder, require_matplotlib,
+                     save_figure)
 from .validation import finite_number, one_of, positive_integer
 
 __all__ = ["main", "build_parser"]
@@ -34,11 +50,57 @@ DEFAULT_METHOD = "RK45"
 DEFAULT_FORMULATION = "baumgarte"
 
 
+#: An option's value that argparse would take for an option: ``-1e-3``, ``-.5``, ``-inf``, ``-1:2:4``.
+_NEGATIVE_VALUE = re.compile(r"-(\d|\.\d|inf|nan|pi)", re.IGNORECASE)
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line and no usage dump."""
+    """argparse, but a usage error is one line and no usage dump, and ``--dphi0 -1e-3`` works.
+
+    argparse reads ``-1e-3`` (scientific notation, unlike ``-1`` or ``-0.5``) as an
+    option, so ``--dphi0 -1e-3`` fails with "expected one argument"; here a value
+    that starts with a minus sign and looks like a number, written after an
+    option of this parser that takes one value, is joined to it as ``--dphi0=-1e-3``
+    before argparse reads the line.
+    """
 
     def error(self, message):
         raise InputError(message)
+
+    def __init__(self, *args, **kwargs):
+        self._value_options = []               # option strings that take exactly one value
+        super().__init__(*args, **kwargs)
+
+    def add_argument(self, *args, **kwargs):
+        action = super().add_argument(*args, **kwargs)
+        if action.option_strings and action.nargs is None:
+            self._value_options.extend(action.option_strings)
+        return action
+
+    def parse_known_args(self, args=None, namespace=None):
+        args = sys.argv[1:] if args is None else list(args)
+        return super().parse_known_args(self._join_negative_values(args), namespace)
+
+    def _takes_one_value(self, token):
+        """True if ``token`` is, or (as argparse allows) abbreviates, an option taking one value."""
+        if token in self._value_options:
+            return True
+        named = [name for name in self._value_options if name.startswith(token)]
+        return self.allow_abbrev and token.startswith("--") and len(named) == 1
+
+    def _join_negative_values(self, args):
+        joined, k = [], 0
+        while k < len(args):
+            token = args[k]
+            if token == "--":
+                return joined + args[k:]
+            if k + 1 < len(args) and _NEGATIVE_VALUE.match(args[k + 1]) and self._takes_one_value(token):
+                joined.append(f"{token}={args[k + 1]}")
+                k += 2
+            else:
+                joined.append(token)
+                k += 1
+        return joined
 
 
 def build_parser():
@@ -165,8 +227,7 @@ def run_simulate(args):
     one_of("method", args.method, SOLVER_METHODS)
     formulation = formulation_from_name(args.formulation, _number("alpha", args.alpha), _number("beta", args.beta))
     reading = get_reading(args.reading)
-    if args.plot is not None and not args.plot.lower().endswith(".png"):
-        raise InputError(f"plot: the figure is written as PNG; give a file name ending in .png, got {args.plot!r}")
+    _check_figure_file("--plot", args.plot)
 
     system = slider_crank_system(reading=reading)
     state = initial_state(system, phi0, dphi0)
@@ -200,9 +261,37 @@ def run_simulate(args):
         from .plotting import plot_slider_crank
 
         label = f"case {case}" if case else f"phi0 = {phi0:g} rad, dphi0 = {dphi0:g} rad/s"
-        plot_slider_crank(result, title=f"Slider-crank, {label}: {summary['motion']}").savefig(args.plot, dpi=120)
+        save_figure(plot_slider_crank(result, title=f"Slider-crank, {label}: {summary['motion']}"), args.plot, dpi=120)
         summary["plot"] = args.plot
     return summary
+
+
+def _check_figure_file(option, path):
+    """Refuse a figure file (None: no figure) that cannot be written, before any computation."""
+    if path is None:
+        return
+    if not path.lower().endswith(".png"):
+        raise InputError(f"{option}: the figure is written as PNG; give a file name ending in .png, got {path!r}")
+    check_file(option, path)
+    require_matplotlib(option)
+
+
+def _check_json_file(option, path):
+    """Refuse a JSON file (None: none, ``-``: standard output) that cannot be written."""
+    if path is not None and path != STDOUT:
+        check_file(option, path)
+
+
+def _write_json(path, data, indent=None):
+    """``data`` as JSON into ``path``, atomically, or onto standard output for ``-``."""
+    if path == STDOUT:
+        json.dump(data, sys.stdout, indent=indent)
+        sys.stdout.write("\n")
+        sys.stdout.flush()
+        return
+    with atomic_write(path) as handle:
+        json.dump(data, handle, indent=indent)
+        handle.write("\n")
 
 
 def _angle(name, text):
@@ -254,17 +343,17 @@ def run_basin(args, progress=None):
         except ValueError:
             workers = args.workers             # refused below, with the range
         positive_integer("workers", workers)
-    if args.png is not None and not args.png.lower().endswith(".png"):
-        raise InputError(f"png: the figure is written as PNG; give a file name ending in .png, got {args.png!r}")
+    _check_json_file("--json", args.json)
+    _check_figure_file("--png", args.png)
+    check_distinct([("--json", args.json), ("--png", args.png)])
     basin = basin_map(grid_values(phi_start, phi_stop, n), grid_values(dphi_start, dphi_stop, m), t_end,
                       step=step, workers=workers, progress=progress)
     if args.json is not None:
-        with open(args.json, "w", encoding="utf-8") as handle:
-            json.dump(basin.as_json(), handle)
+        _write_json(args.json, basin.as_json())
     if args.png is not None:
         from .plotting import plot_basin_map
 
-        plot_basin_map(basin).savefig(args.png, dpi=120)
+        save_figure(plot_basin_map(basin), args.png, dpi=120)
     return basin
 
 
@@ -297,7 +386,7 @@ def _format_basin(basin, args):
         f"step {basin.step:g} s",
     ]
     if args.json is not None:
-        lines.append(f"grid and outcomes written to {args.json}")
+        lines.append(f"grid and outcomes written to {'standard output' if args.json == STDOUT else args.json}")
     if args.png is not None:
         lines.append(f"figure written to {args.png}")
     return "\n".join(lines)
@@ -330,47 +419,125 @@ def run_benchmark(args):
     """Carry out ``closedloop benchmark``; returns the text to print."""
     from .studies.benchmark import DEFAULT_SETTINGS, QUICK_SETTINGS, format_table, residual_traces, run_study
 
-    if args.json is not None and not Path(args.json).resolve().parent.is_dir():
-        raise InputError(f"json: the folder of {args.json!r} does not exist")
+    settings = QUICK_SETTINGS if args.quick else DEFAULT_SETTINGS
+    _check_json_file("--json", args.json)
     figures = None if args.figures is None else Path(args.figures)
-    if figures is not None and figures.exists() and not figures.is_dir():
-        raise InputError(f"figures: {args.figures!r} exists and is not a folder")
-    data = run_study(QUICK_SETTINGS if args.quick else DEFAULT_SETTINGS,
-                     progress=lambda text: print(text, file=sys.stderr, flush=True))
+    names = [f"work_precision_case{case}.png" for case in settings.cases]
+    names += ["best_per_formulation.png", "residuals_case2.png"]
+    if figures is not None:
+        check_folder("--figures", args.figures)
+        require_matplotlib("--figures")
+        if figures.is_dir():
+            for name in names:
+                check_file("--figures", str(figures / name))
+        check_distinct([("--json", args.json), ("--figures", args.figures)]
+                       + [("--figures", str(figures / name)) for name in names])
+    data = run_study(settings, progress=lambda text: print(text, file=sys.stderr, flush=True))
     lines = [format_table(data)]
     if args.json is not None:
-        with open(args.json, "w", encoding="utf-8") as stream:
-            json.dump(data, stream, indent=1)
-            stream.write("\n")
-        lines.append(f"rows and settings written to {args.json}")
+        _write_json(args.json, data, indent=1)
+        if args.json != STDOUT:
+            lines.append(f"rows and settings written to {args.json}")
     if figures is not None:
         from .plotting.benchmark import pareto_figure, residual_figure, work_precision_figure
 
-        figures.mkdir(parents=True, exist_ok=True)
+        try:
+            figures.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise WriteError(f"cannot create {figures}: {error.strerror or error}") from None
         written = {f"work_precision_case{case}.png": work_precision_figure(data["rows"], case)
                    for case in data["settings"]["cases"]}
         written["best_per_formulation.png"] = pareto_figure(data["rows"])
         written["residuals_case2.png"] = residual_figure(
             residual_traces(2, "DOP853", 1e-6), "Case 2, DOP853, rtol = atol = 1e-6")
         for name, fig in written.items():
-            fig.savefig(figures / name, dpi=110)
+            save_figure(fig, str(figures / name), dpi=110)
         lines.append(f"figures written to {figures}: {', '.join(written)}")
     return "\n".join(lines)
 
 
-def main(argv=None):
-    """Entry point of ``closedloop``; returns the exit status."""
+class _Terminated(BaseException):
+    """SIGTERM, raised in the main process like KeyboardInterrupt for SIGINT (so that ``with`` blocks clean up)."""
+
+
+#: Exit status and line on stderr for each signal (128 + the signal's number, as a shell reports it).
+_SIGNALS = {signal.SIGINT: (KeyboardInterrupt, 130, "interrupted"), signal.SIGTERM: (_Terminated, 143, "terminated")}
+
+
+@contextlib.contextmanager
+def _signals_as_exceptions():
+    """SIGINT raises KeyboardInterrupt and SIGTERM :class:`_Terminated` in this process, once.
+
+    The first signal starts an orderly end (basin's ``with Pool`` terminates its workers);
+    further ones are ignored while it runs. Processes forked meanwhile (basin's workers)
+    inherit the handler: there SIGINT is ignored, the parent ends them, and SIGTERM kills
+    as by default. Signals ignored on entry (``nohup``) stay ignored; the previous handlers
+    are restored on exit.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    parent = os.getpid()
+
+    def handler(signum, frame):
+        if os.getpid() != parent:
+            if signum == signal.SIGTERM:
+                signal.signal(signum, signal.SIG_DFL)
+                os.kill(os.getpid(), signum)
+            return
+        for other in previous:
+            signal.signal(other, signal.SIG_IGN)
+        raise _SIGNALS[signum][0]
+
+    previous = {number: signal.getsignal(number) for number in _SIGNALS}
+    previous = {number: old for number, old in previous.items() if old is not signal.SIG_IGN}
     try:
-        args = build_parser().parse_args(argv)
-        if args.command == "basin":
-            return _main_basin(args)
-        if args.command == "benchmark":
-            print(run_benchmark(args))
-            return 0
-        summary = run_simulate(args)
+        for number in previous:
+            signal.signal(number, handler)
+        yield
+    finally:
+        for number, old in previous.items():
+            signal.signal(number, old)
+
+
+def _error(message):
+    print(f"closedloop: error: {message}", file=sys.stderr)
+
+
+def main(argv=None):
+    """Entry point of ``closedloop``; returns the exit status.
+
+    0 done; 1 the run or a write failed; 2 bad input (nothing computed); 130 Ctrl-C; 143 SIGTERM.
+    Every failure is one line on stderr.
+    """
+    try:
+        with _signals_as_exceptions():
+            return _run(argv)
+    except (KeyboardInterrupt, _Terminated) as stop:
+        _, status, word = next(v for v in _SIGNALS.values() if isinstance(stop, v[0]))
+        print(f"closedloop: {word}", file=sys.stderr)
+        return status
+    except BrokenPipeError:                    # stdout closed early (``| head``): end quietly, as Unix tools do
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     except ClosedLoopError as error:
-        print(f"closedloop: error: {error}", file=sys.stderr)
+        _error(error)
         return 2 if isinstance(error, InputError) else 1
+    except OSError as error:                   # a write outside closedloop.output, e.g. onto standard output
+        _error(f"{error.filename}: {error.strerror}" if error.filename else error.strerror or error)
+        return 1
+
+
+def _run(argv):
+    args = build_parser().parse_args(argv)
+    if args.command == "basin":
+        return _main_basin(args)
+    if args.command == "benchmark":
+        text = run_benchmark(args)
+        print(text, file=sys.stderr if args.json == STDOUT else sys.stdout)
+        return 0
+    summary = run_simulate(args)
     print(json.dumps(summary, indent=2) if args.json else _format(summary))
     for warning in summary["warnings"]:
         print(f"closedloop: warning: {warning}", file=sys.stderr)
@@ -385,7 +552,7 @@ def _main_basin(args):
     finally:
         if bar is not None:
             bar.close()
-    print(_format_basin(basin, args))
+    print(_format_basin(basin, args), file=sys.stderr if args.json == STDOUT else sys.stdout)
     return 0
 
 
