@@ -207,7 +207,7 @@ QUICK_SETTINGS = StudySettings(quick=True, cases=(2,), methods=("DOP853", "ode.d
 # -- provenance ------------------------------------------------------------------------------
 #: Paths in the package, relative to its root, that cannot change a number of the study (output
 #: and examples only); a folder named here leaves out everything below it.
-_NOT_IN_FINGERPRINT = ("cli.py", "plotting.py", "plotting", "examples.py", "four_bar.py")
+_NOT_IN_FINGERPRINT = ("cli.py", "output.py", "plotting.py", "plotting", "examples.py", "four_bar.py")
 #: The package's root folder, wherever this module sits below it.
 _PACKAGE_ROOT = Path(__import__("closedloop").__file__).resolve().parent
 
