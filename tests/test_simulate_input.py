@@ -49,3 +49,24 @@ def test_numpy_numbers_are_numbers(setup):
 def test_classify_motion_wants_a_result(value):
     with pytest.raises(InputError, match=r"^result: expected a SimulationResult, got "):
         classify_motion(value)
+
+
+@pytest.mark.parametrize("masses, message", [
+    ({"m1": -10.0}, r"^system: the mass matrix M of \(5\) at the initial state has the eigenvalues -1.34, 0.48, 6.01: "
+                    r"the kinetic energy s'\^T M s' / 2 is not positive"),
+    ({"m1": 0.0, "m2": 0.0, "m3": 0.0}, r"^system: the mass matrix M of \(5\) at the initial state has the "
+                                         r"eigenvalues 0, 0, 0"),
+])
+@pytest.mark.parametrize("name", ["minimal", "baumgarte"])
+def test_a_kinetic_energy_that_is_not_positive_is_refused(masses, message, name):
+    """A negative or vanishing inertia is refused before the run, whatever the formulation (Minimal raised
+    a raw LinAlgError, Baumgarte blamed a kinematic singularity, and m1 = -10 ran without complaint)."""
+    from closedloop import System, consistent_initial_state
+    from closedloop.formulations import formulation_from_name
+    from closedloop.four_bar import four_bar_model
+
+    data = {"l0": 3.0, "l1": 1.0, "l2": 3.0, "l3": 1.2, "m1": 1.0, "m2": 2.0, "m3": 1.0, "g": 9.81, **masses}
+    system = System(four_bar_model(), data)
+    state = consistent_initial_state(system, [-np.pi / 2], [1.0], [0.0, -np.pi / 2])
+    with pytest.raises(InputError, match=message):
+        simulate(system, state, 1.0, formulation=formulation_from_name(name))

@@ -12,6 +12,7 @@ from scipy.integrate import OdeSolver
 from ..errors import InputError
 from ..formulations import Formulation
 from ..kinematics import InitialState
+from ..linalg import null_space_basis
 from ..methods import IMPLICIT_METHODS, SOLVER_METHODS
 from ..validation import finite_array, finite_number, is_real, positive_integer, shown
 from . import dop853
@@ -149,6 +150,38 @@ def _check_initial_state(system, initial_state):
         raise InputError(
             f"initial_state: not consistent (|f| = {errors[0]:.3g}, |f'| = {errors[1]:.3g}, allowed "
             f"<= {INITIAL_TOLERANCE:g}); build it with consistent_initial_state"
+        )
+    _check_inertia(system, s0, sd0, Phi0)
+
+
+#: Eigenvalues of M (and of N^T M N along the free motion) below this times the largest count as zero.
+INERTIA_TOLERANCE = 1e-12
+
+
+def _check_inertia(system, s0, sd0, Phi0):
+    """Refuse a system whose kinetic energy T = s'^T M s' / 2 is not positive at the start.
+
+    M of (5) may be singular in redundant coordinates (a massless coordinate the
+    constraints carry), but it may not have a negative eigenvalue, and it must be
+    positive definite along the free motion: N^T M N, with N a basis of the null
+    space of Phi_s (18), is what every formulation inverts.
+    """
+    mass = np.asarray(system.dynamics(0.0, s0, sd0).mass_matrix, dtype=float)
+    eigenvalues = np.linalg.eigvalsh(0.5 * (mass + mass.T))
+    largest = float(np.max(np.abs(eigenvalues)))
+    if largest == 0.0 or eigenvalues[0] < -INERTIA_TOLERANCE * largest:
+        raise InputError(
+            f"system: the mass matrix M of (5) at the initial state has the eigenvalues "
+            f"{', '.join(f'{v:.3g}' for v in eigenvalues)}: the kinetic energy s'^T M s' / 2 is not positive; "
+            "check the masses and moments of inertia among the parameter values"
+        )
+    free = null_space_basis(Phi0)
+    reduced = np.linalg.eigvalsh(free.T @ mass @ free)
+    if reduced[0] <= INERTIA_TOLERANCE * largest:
+        raise InputError(
+            f"system: the mechanism has no inertia along its free motion at the initial state (N^T M N of "
+            f"(18) has the eigenvalue {reduced[0]:.3g}), so its accelerations are not determined; check the "
+            "masses and moments of inertia among the parameter values"
         )
 
 
