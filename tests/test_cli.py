@@ -2,6 +2,7 @@
 
 import json
 import math
+import re
 import subprocess
 import sys
 
@@ -81,3 +82,25 @@ def test_installed_command_prints_no_traceback_on_bad_input():
     assert done.returncode == 2
     assert done.stderr.strip() == "closedloop: error: t_end: must be a finite number > 0 s, got 0.0"
     assert "Traceback" not in done.stderr
+
+
+# -- closedloop benchmark ---------------------------------------------------------------------
+def test_benchmark_prints_the_tables_and_writes_the_figures(quick_benchmark):
+    _, text, figures = quick_benchmark
+    assert "Cheapest choice per accuracy level" in text
+    assert "case 2:" in text and "baseline CPU / best library CPU" in text
+    names = sorted(p.name for p in figures.iterdir())
+    assert names == ["best_per_formulation.png", "residuals_case2.png", "work_precision_case2.png"]
+    assert all((figures / n).read_bytes()[:4] == b"\x89PNG" for n in names)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--json", "/no/such/folder/rows.json"], "json: the folder of"),
+    (["--figures", __file__], "figures: .* is not a folder"),
+    (["--repeats", "3"], "unrecognized arguments"),
+])
+def test_benchmark_bad_input_is_one_line_and_exit_2(capsys, args, message):
+    assert main(["benchmark", "--quick", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("closedloop: error:")
+    assert re.search(message, err)
