@@ -18,7 +18,6 @@ from closedloop.cli import build_parser
 from closedloop.formulations.projected import PROJECTABLE_METHODS
 from closedloop.simulation import dop853
 from closedloop.slider_crank import GasForce, SliderCrankParameters, gas_force, get_case, get_reading, initial_state
-from closedloop.studies.energy import gas_outward_work
 from closedloop.studies import benchmark, baseline
 
 
@@ -138,19 +137,6 @@ def test_the_generated_numeric_gas_laws_equal_the_sympy_expression(reading):
     assert printed[0] == pytest.approx(reading.gas_coefficients[1] - reading.gas_coefficients[0] / 4.5, rel=1e-15)
     assert printed[-1] == pytest.approx(-reading.gas_coefficients[2] * (1 - math.sin(0.5 * math.pi)), abs=1e-9)
     assert gas_force(3.0, -0.1, reading) == 0.0 and gas_force(5.6, 1.0, reading) == 0.0
-
-
-def test_the_outward_work_is_the_integral_of_the_law():
-    inner_work, outer_work = gas_law.outward_work_functions()
-    coefficients = gas_law.PRINTED_COEFFICIENTS
-    # a ln((6 - x)/4.5) + b (x - 1.5) at x = 5: 282.857 ln(1/4.5) + 62.857 * 3.5
-    assert inner_work(5.0, *coefficients) == pytest.approx(282.857 * math.log(1 / 4.5) + 62.857 * 3.5, rel=1e-14)
-    # -110 (x - 5) - 110 [cos 2 pi (x - 5.25) - cos(-pi/2)]/(2 pi) at x = 5.5: -55 - 110 cos(pi/2)/(2 pi) = -55
-    assert outer_work(5.5, *coefficients) == pytest.approx(-55.0, rel=1e-12)
-    # a whole outward stroke in the paper's reading (force_sign = +1): about -260.44 J
-    whole_stroke = 282.857 * math.log(1 / 4.5) + 62.857 * 3.5 - 55.0
-    assert gas_outward_work(5.5) - gas_outward_work(1.5) == pytest.approx(whole_stroke, rel=1e-13)
-    assert whole_stroke == pytest.approx(-260.4393, abs=1e-4)
 
 
 def test_one_newton_loop_serves_one_state_and_a_batch(slider_crank):
