@@ -8,10 +8,10 @@ import pytest
 
 from closedloop import Minimal, simulate
 from closedloop.studies.basin import (basin_map, boundary_cells, compare_outcomes, grid_values, integrate_outcomes,
-                              reference_outcome, reference_outcomes)
+                              reference_outcomes)
 from closedloop.cli import main
 from closedloop.errors import InputError
-from closedloop.slider_crank import CASES, MOTIONS, GasForce, classify_motion, initial_state, motion_codes
+from closedloop.slider_crank import CASES, GasForce, initial_state
 
 #: A 12 x 10 grid that cuts across the basin boundary (see the chapter's map).
 SMALL_PHI0 = grid_values(0.5 * math.pi, 1.5 * math.pi, 12)
@@ -55,28 +55,6 @@ def test_batch_final_state_matches_simulate_to_the_step_error(slider_crank):
     assert batch.max_constraint_error < 1e-12
 
 
-def test_the_four_cases_get_the_papers_outcomes(slider_crank):
-    """Batch, map and simulate+classify_motion all give the paper's finding for cases 1-4."""
-    phi0 = [case.phi0 for case in CASES.values()]
-    dphi0 = [case.dphi0 for case in CASES.values()]
-    batch = integrate_outcomes(slider_crank, phi0, dphi0, 20.0)
-    basin = basin_map(grid_values(0.0, 2 * math.pi, 4), grid_values(0.0, 3.0, 6), 20.0)   # holds all four points
-    for code, case in zip(batch.codes, CASES.values()):
-        result = simulate(slider_crank, initial_state(slider_crank, case.phi0, case.dphi0), 20.0)
-        assert MOTIONS[code] == classify_motion(result, case.phi0) == case.finding
-        assert MOTIONS[basin.outcome_at(case.phi0, case.dphi0)] == case.finding
-        assert reference_outcome(slider_crank, case.phi0, case.dphi0) == code
-
-
-@pytest.mark.parametrize("number, expected", [(3, 28.4), (1, 37.8)])
-def test_batch_sticks_where_simulate_does(slider_crank, number, expected):
-    """The sticking rule: cases 3 and 1 stick mid-stroke after 20 s (NOTES.md), and stay stuck."""
-    case = CASES[number]
-    batch = integrate_outcomes(slider_crank, [case.phi0], [case.dphi0], 40.0)
-    assert batch.stuck_at[0] == pytest.approx(expected, abs=0.1)
-    assert np.isnan(batch.released_at[0]) and batch.final_dphi[0] == 0.0
-
-
 def test_batch_releases_a_stuck_slider_where_simulate_does():
     """A torque ripple of 60 N m frees the slider: stuck at t = 0, released, stuck again, as simulate finds."""
     from closedloop.slider_crank import OMEGA, SliderCrankParameters, SliderCrankSystem, get_reading
@@ -114,11 +92,6 @@ def test_arrays_of_states_give_the_same_dynamics_as_one_state(slider_crank):
         np.testing.assert_allclose(f[:, j], one[2], rtol=1e-13, atol=1e-14)
         np.testing.assert_allclose(Phi[:, :, j], one[3], rtol=1e-13, atol=1e-14)
         np.testing.assert_allclose(gamma[:, j], one[4], rtol=1e-12, atol=1e-12)
-
-
-def test_motion_codes_is_the_rule_of_classify_motion():
-    assert list(motion_codes([0.0, 2 * math.pi - 1e-9, 2 * math.pi, 7.0])) == [0, 0, 1, 1]
-    assert MOTIONS[motion_codes(2 * math.pi)] == "full rotation"
 
 
 def test_boundary_cells_are_those_with_a_neighbour_of_the_other_outcome():

@@ -124,3 +124,17 @@ def test_the_scan_resolves_relative_imports_in_a_package_init():
     assert (line, statement, names[0]) == (1, "from .dop853 import run", "closedloop.simulation.dop853")
     [(_, _, names)] = imports_of("from .dop853 import run", "closedloop.simulation.runner")
     assert names[0] == "closedloop.simulation.dop853"
+
+
+def test_the_old_home_of_reading_outcomes_warns_and_gives_the_study():
+    """Readers' code of 0.1 imported the study from the mechanism; it still works, with a warning."""
+    import closedloop.slider_crank as slider_crank
+    from closedloop.studies.readings import reading_outcomes
+
+    with pytest.warns(DeprecationWarning, match=r"moved to closedloop\.studies\.readings"):
+        old = slider_crank.reading_outcomes
+    assert old is reading_outcomes
+    assert "reading_outcomes" not in slider_crank.__all__ and "ReadingOutcome" not in slider_crank.__all__
+    with pytest.raises(AttributeError, match="no_such_name"):
+        slider_crank.no_such_name
+
