@@ -1,6 +1,5 @@
 """The basin map: the batch integrator against simulate(), the boundary, the sticking rule, the command."""
 
-import json
 import math
 
 import numpy as np
@@ -9,7 +8,6 @@ import pytest
 from closedloop import Minimal, simulate
 from closedloop.studies.basin import (basin_map, boundary_cells, compare_outcomes, grid_values, integrate_outcomes,
                               reference_outcomes)
-from closedloop.cli import main
 from closedloop.errors import InputError
 from closedloop.slider_crank import CASES, GasForce, initial_state
 
@@ -128,69 +126,3 @@ def test_basin_map_refuses_bad_input_before_integrating(kwargs, message):
     with pytest.raises(InputError, match="phi0: values must increase"):
         basin_map([2.0, 1.0], [0.5])
 
-
-def test_command_writes_json_and_png(tmp_path, capsys):
-    path, png = tmp_path / "map.json", tmp_path / "map.png"
-    assert main(["basin", "--phi0", "0:2pi:4", "--dphi0", "0.5:1.5:2", "--t-end", "6",
-                 "--json", str(path), "--png", str(png)]) == 0
-    captured = capsys.readouterr()
-    assert captured.err == ""                                  # no progress bar when stderr is not a terminal
-    assert "4 x 2 cells" in captured.out and "full rotation:" in captured.out
-    data = json.loads(path.read_text())
-    assert set(data) >= {"phi0", "dphi0", "t_end", "outcome", "labels", "version", "cpu_s"}
-    assert data["phi0"] == pytest.approx([0.0, math.pi / 2, math.pi, 1.5 * math.pi])
-    assert data["dphi0"] == pytest.approx([0.5, 1.0]) and data["t_end"] == 6.0
-    assert np.array(data["outcome"]).shape == (2, 4)
-    assert data["labels"] == {"0": "oscillation", "1": "full rotation"}
-    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-
-
-@pytest.mark.parametrize("args, message", [
-    (["--phi0", "0:1", "--dphi0", "0:3:5"], "phi0: expected START:STOP:N, got '0:1'"),
-    (["--phi0", "0:1:0", "--dphi0", "0:3:5"], "phi0: N must be an integer >= 1, got 0"),
-    (["--phi0", "0:1:2.5", "--dphi0", "0:3:5"], "phi0: N must be an integer >= 1, got '2.5'"),
-    (["--phi0", "1:0:4", "--dphi0", "0:3:5"], "phi0: STOP must be > START"),
-    (["--phi0", "0:7:4", "--dphi0", "0:3:5"], "phi0: the range must lie inside [0, 2pi]"),
-    (["--phi0=-1:2:4", "--dphi0", "0:3:5"], "phi0: the range must lie inside [0, 2pi]"),
-    (["--phi0", "0:2pi:4", "--dphi0=-1:3:5"], "dphi0: START must be >= 0"),
-    (["--phi0", "0:x:4", "--dphi0", "0:3:5"], "phi0: expected a number, got 'x'"),
-    (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--t-end", "0"], "t_end: must be a finite number > 0 s"),
-    (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--png", "map.svg"], "png: the figure is written as PNG"),
-    (["--phi0", "0:2pi:4"], "the following arguments are required: --dphi0"),
-])
-def test_basin_bad_input_is_one_line_and_exit_2(args, message, capsys):
-    assert main(["basin", *args]) == 2
-    captured = capsys.readouterr()
-    lines = captured.err.splitlines()
-    assert captured.out == "" and len(lines) == 1
-    assert lines[0].startswith("closedloop: error: ") and message in lines[0]
-
-
-def test_map_figure_marks_the_four_cases_where_they_are():
-    from closedloop.plotting import plot_basin_map
-
-    whole = basin_map(grid_values(0.0, 2 * math.pi, 4), grid_values(0.0, 3.0, 3), 1.0)
-    ax = plot_basin_map(whole).axes[0]
-    marked = {(round(x, 9), round(y, 9)) for line in ax.lines for x, y in zip(*line.get_data())}
-    assert marked == {(round(c.phi0, 9), round(c.dphi0, 9)) for c in CASES.values()}
-    assert sorted(t.get_text() for t in ax.texts) == ["1", "2", "3", "4"]
-    # a map drawn over [0.7 pi, 1.1 pi] x [0.55, 1.55] rad/s holds only cases 1 and 4
-    part = basin_map(grid_values(0.8 * math.pi, 1.2 * math.pi, 2), grid_values(0.8, 1.8, 2), 1.0)
-    assert sorted(t.get_text() for t in plot_basin_map(part).axes[0].texts) == ["1", "4"]
-
-
-def test_progress_bar_only_on_a_terminal(monkeypatch, capsys):
-    import io
-    import sys
-
-    class Terminal(io.StringIO):
-        def isatty(self):
-            return True
-
-    terminal = Terminal()
-    monkeypatch.setattr(sys, "stderr", terminal)
-    assert main(["basin", "--phi0", "0:2pi:2", "--dphi0", "0:1:1", "--t-end", "0.5"]) == 0
-    bar = terminal.getvalue()
-    assert bar.startswith("\r[") and "100 %" in bar and bar.endswith("\n")
-    assert "[" + "#" * 40 + "]" in bar
-    assert "\r" not in capsys.readouterr().out                # the bar never goes to stdout

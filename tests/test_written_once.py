@@ -12,7 +12,6 @@ from closedloop.formulations.minimal import MinimalUnpacker, minimal_acceleratio
 from closedloop.linalg import orthogonal_complement_many
 from closedloop.kinematics import solve_dependent, solve_dependent_many
 from closedloop import simulation
-from closedloop.cli import build_parser
 from closedloop.formulations.projected import PROJECTABLE_METHODS
 from closedloop.simulation import dop853
 from closedloop.slider_crank import SliderCrankParameters, get_case, initial_state
@@ -27,15 +26,6 @@ def test_every_list_of_methods_comes_from_one_place():
     assert baseline.BASELINE_METHODS == methods.SOLVE_IVP_METHODS
     assert benchmark.ALL_METHODS == ("RK45", "DOP853", "Radau", "BDF", "LSODA", "ode.dop853")
     assert benchmark.EXPLICIT_RK == ("RK45", "DOP853")
-
-
-def test_the_command_line_help_lists_every_method(capsys):
-    with pytest.raises(SystemExit):
-        build_parser().parse_args(["simulate", "--help"])
-    help_text = capsys.readouterr().out
-    for name in methods.SOLVER_METHODS:
-        assert f" {name}," in help_text or f" {name} " in help_text
-    assert "ode.dop853" in help_text
 
 
 def test_the_dynamics_are_a_named_tuple_that_still_unpacks(slider_crank):
