@@ -8,7 +8,6 @@ import pytest
 from closedloop import Minimal, simulate
 from closedloop.studies.basin import (basin_map, boundary_cells, compare_outcomes, grid_values, integrate_outcomes,
                               reference_outcomes)
-from closedloop.errors import InputError
 from closedloop.slider_crank import CASES, GasForce, initial_state
 
 #: A 12 x 10 grid that cuts across the basin boundary (see the chapter's map).
@@ -73,25 +72,6 @@ def test_batch_releases_a_stuck_slider_where_simulate_does():
     assert batch.final_dphi[0] == result.velocity("phi")[-1] == 0.0     # stuck again at the end
 
 
-def test_arrays_of_states_give_the_same_dynamics_as_one_state(slider_crank):
-    """System.dynamics_many and GasForce.many (numpy, many cells) against the one-state functions."""
-    rng = np.random.default_rng(3)
-    size = 7
-    s = np.array([rng.uniform(0, 2 * math.pi, size), rng.uniform(2.5, 3.8, size), rng.uniform(1.5, 5.5, size)])
-    sd = rng.normal(size=(3, size))
-    t = rng.uniform(0, 20, size)
-    mode = rng.random((2, size)) < 0.5
-    M, p1, f, Phi, gamma = slider_crank.dynamics_many(t, s, sd)
-    force = slider_crank.force.many(t, s, sd, mode)
-    for j in range(size):
-        one = slider_crank.dynamics(t[j], s[:, j], sd[:, j], tuple(mode[:, j]))
-        np.testing.assert_allclose(M[:, :, j], one[0], rtol=1e-13)
-        np.testing.assert_allclose(p1[:, j] + force[:, j], one[1], rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(f[:, j], one[2], rtol=1e-13, atol=1e-14)
-        np.testing.assert_allclose(Phi[:, :, j], one[3], rtol=1e-13, atol=1e-14)
-        np.testing.assert_allclose(gamma[:, j], one[4], rtol=1e-12, atol=1e-12)
-
-
 def test_boundary_cells_are_those_with_a_neighbour_of_the_other_outcome():
     outcome = np.array([[0, 0, 0, 0],
                         [0, 0, 1, 1],
@@ -112,17 +92,4 @@ def test_two_workers_give_the_same_map_as_one():
     np.testing.assert_array_equal(one.outcome, two.outcome)
     np.testing.assert_allclose(one.excursion, two.excursion, rtol=1e-12)
     assert two.workers == 2 and one.outcome.shape == (5, 8)
-
-
-@pytest.mark.parametrize("kwargs, message", [
-    ({"t_end": 0.0}, "t_end: must be a finite number > 0"),
-    ({"step": -0.1}, "step: must be a finite number > 0"),
-    ({"step": 30.0}, "step: must be <= t_end"),
-    ({"workers": 0}, "workers: must be an integer"),
-])
-def test_basin_map_refuses_bad_input_before_integrating(kwargs, message):
-    with pytest.raises(InputError, match=message):
-        basin_map([1.0, 2.0], [0.5], **{"t_end": 20.0, **kwargs})
-    with pytest.raises(InputError, match="phi0: values must increase"):
-        basin_map([2.0, 1.0], [0.5])
 
