@@ -1,4 +1,8 @@
-"""Stiff Baumgarte gains: RK4's stability theory against the integration, step counts, clear errors."""
+"""The integrators: RK4's stability theory against the integration, stiff Baumgarte gains and step counts,
+output times, minimal coordinates kept on their branch, and clear errors when a run cannot go on.
+
+The compiled DOP853 ("ode.dop853") has its own file, test_ode_dop853.py.
+"""
 
 import re
 import math
