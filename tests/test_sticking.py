@@ -1,7 +1,8 @@
 """Switching, sticking and release of the slider: events against a naive if-statement, tolerance
 independence, the evaluation cap, a slider held to any t_end, and its release by the holding force.
 
-The sticking times themselves (28.4 s and 37.8 s) are checked in test_paper_cases.py.
+The notes' sticking times of cases 3 and 1 (28.4 s, 37.8 s) have their home in test_paper_cases.py;
+the tests here compare runs with each other (tolerances, switching rules, t_end).
 """
 
 import math
