@@ -1,17 +1,25 @@
-"""The basin map: the batch integrator against simulate(), the boundary, the sticking rule, the command."""
+"""The basin map: the batch integrator against simulate(), the boundary, the sticking rule, workers, and
+the batch integrator on a system other than the slider-crank.
 
-import json
+The four cases' outcomes and sticking times by the batch integrator are checked with simulate's in
+test_paper_cases.py; the basin command in test_cli.py; the map figure in test_plotting.py.
+
+The four-bar of ``conftest.four_bar`` is a Grashof crank-rocker (l1 + l0 <= l2 + l3, the crank
+shortest): its crank can turn full circle without meeting a change point.  No force drives it,
+so each start either swings for ever or turns; the reference for each cell is one adaptive
+:func:`closedloop.simulate` run (minimal coordinates, DOP853, rtol = atol = 1e-10).
+"""
+
 import math
 
 import numpy as np
 import pytest
 
-from closedloop import Minimal, simulate
+from closedloop import InputError, Minimal, consistent_initial_state, simulate
+from closedloop.four_bar import parameter_values
+from closedloop.slider_crank import CASES, MOTIONS, GasForce, initial_state
 from closedloop.studies.basin import (basin_map, boundary_cells, compare_outcomes, grid_values, integrate_outcomes,
-                              reference_outcome, reference_outcomes)
-from closedloop.cli import main
-from closedloop.errors import InputError
-from closedloop.slider_crank import CASES, MOTIONS, GasForce, classify_motion, initial_state, motion_codes
+                                      reference_outcome, reference_outcomes)
 
 #: A 12 x 10 grid that cuts across the basin boundary (see the chapter's map).
 SMALL_PHI0 = grid_values(0.5 * math.pi, 1.5 * math.pi, 12)
@@ -55,28 +63,6 @@ def test_batch_final_state_matches_simulate_to_the_step_error(slider_crank):
     assert batch.max_constraint_error < 1e-12
 
 
-def test_the_four_cases_get_the_papers_outcomes(slider_crank):
-    """Batch, map and simulate+classify_motion all give the paper's finding for cases 1-4."""
-    phi0 = [case.phi0 for case in CASES.values()]
-    dphi0 = [case.dphi0 for case in CASES.values()]
-    batch = integrate_outcomes(slider_crank, phi0, dphi0, 20.0)
-    basin = basin_map(grid_values(0.0, 2 * math.pi, 4), grid_values(0.0, 3.0, 6), 20.0)   # holds all four points
-    for code, case in zip(batch.codes, CASES.values()):
-        result = simulate(slider_crank, initial_state(slider_crank, case.phi0, case.dphi0), 20.0)
-        assert MOTIONS[code] == classify_motion(result, case.phi0) == case.finding
-        assert MOTIONS[basin.outcome_at(case.phi0, case.dphi0)] == case.finding
-        assert reference_outcome(slider_crank, case.phi0, case.dphi0) == code
-
-
-@pytest.mark.parametrize("number, expected", [(3, 28.4), (1, 37.8)])
-def test_batch_sticks_where_simulate_does(slider_crank, number, expected):
-    """The sticking rule: cases 3 and 1 stick mid-stroke after 20 s (NOTES.md), and stay stuck."""
-    case = CASES[number]
-    batch = integrate_outcomes(slider_crank, [case.phi0], [case.dphi0], 40.0)
-    assert batch.stuck_at[0] == pytest.approx(expected, abs=0.1)
-    assert np.isnan(batch.released_at[0]) and batch.final_dphi[0] == 0.0
-
-
 def test_batch_releases_a_stuck_slider_where_simulate_does():
     """A torque ripple of 60 N m frees the slider: stuck at t = 0, released, stuck again, as simulate finds."""
     from closedloop.slider_crank import OMEGA, SliderCrankParameters, SliderCrankSystem, get_reading
@@ -95,30 +81,6 @@ def test_batch_releases_a_stuck_slider_where_simulate_does():
     assert batch.released_at[0] == pytest.approx(end, abs=1e-11)
     assert batch.final_phi[0] == pytest.approx(result.coordinate("phi")[-1], abs=1e-6)
     assert batch.final_dphi[0] == result.velocity("phi")[-1] == 0.0     # stuck again at the end
-
-
-def test_arrays_of_states_give_the_same_dynamics_as_one_state(slider_crank):
-    """System.dynamics_many and GasForce.many (numpy, many cells) against the one-state functions."""
-    rng = np.random.default_rng(3)
-    size = 7
-    s = np.array([rng.uniform(0, 2 * math.pi, size), rng.uniform(2.5, 3.8, size), rng.uniform(1.5, 5.5, size)])
-    sd = rng.normal(size=(3, size))
-    t = rng.uniform(0, 20, size)
-    mode = rng.random((2, size)) < 0.5
-    M, p1, f, Phi, gamma = slider_crank.dynamics_many(t, s, sd)
-    force = slider_crank.force.many(t, s, sd, mode)
-    for j in range(size):
-        one = slider_crank.dynamics(t[j], s[:, j], sd[:, j], tuple(mode[:, j]))
-        np.testing.assert_allclose(M[:, :, j], one[0], rtol=1e-13)
-        np.testing.assert_allclose(p1[:, j] + force[:, j], one[1], rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(f[:, j], one[2], rtol=1e-13, atol=1e-14)
-        np.testing.assert_allclose(Phi[:, :, j], one[3], rtol=1e-13, atol=1e-14)
-        np.testing.assert_allclose(gamma[:, j], one[4], rtol=1e-12, atol=1e-12)
-
-
-def test_motion_codes_is_the_rule_of_classify_motion():
-    assert list(motion_codes([0.0, 2 * math.pi - 1e-9, 2 * math.pi, 7.0])) == [0, 0, 1, 1]
-    assert MOTIONS[motion_codes(2 * math.pi)] == "full rotation"
 
 
 def test_boundary_cells_are_those_with_a_neighbour_of_the_other_outcome():
@@ -143,81 +105,89 @@ def test_two_workers_give_the_same_map_as_one():
     assert two.workers == 2 and one.outcome.shape == (5, 8)
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"t_end": 0.0}, "t_end: must be a finite number > 0"),
-    ({"step": -0.1}, "step: must be a finite number > 0"),
-    ({"step": 30.0}, "step: must be <= t_end"),
-    ({"workers": 0}, "workers: must be an integer"),
-])
-def test_basin_map_refuses_bad_input_before_integrating(kwargs, message):
-    with pytest.raises(InputError, match=message):
-        basin_map([1.0, 2.0], [0.5], **{"t_end": 20.0, **kwargs})
-    with pytest.raises(InputError, match="phi0: values must increase"):
-        basin_map([2.0, 1.0], [0.5])
+# -- any one-degree-of-freedom system: the four-bar -------------------------------------------
+#: A 6 x 6 grid of the four-bar's crank angles [rad] and rates [rad/s]; both outcomes occur on it.
+ANGLES = grid_values(0.0, 2.0 * math.pi, 6)
+RATES = grid_values(0.0, 12.0, 6)
+T_END = 5.0
+FULL_TURN = 2.0 * math.pi
 
 
-def test_command_writes_json_and_png(tmp_path, capsys):
-    path, png = tmp_path / "map.json", tmp_path / "map.png"
-    assert main(["basin", "--phi0", "0:2pi:4", "--dphi0", "0.5:1.5:2", "--t-end", "6",
-                 "--json", str(path), "--png", str(png)]) == 0
-    captured = capsys.readouterr()
-    assert captured.err == ""                                  # no progress bar when stderr is not a terminal
-    assert "4 x 2 cells" in captured.out and "full rotation:" in captured.out
-    data = json.loads(path.read_text())
-    assert set(data) >= {"phi0", "dphi0", "t_end", "outcome", "labels", "version", "cpu_s"}
-    assert data["phi0"] == pytest.approx([0.0, math.pi / 2, math.pi, 1.5 * math.pi])
-    assert data["dphi0"] == pytest.approx([0.5, 1.0]) and data["t_end"] == 6.0
-    assert np.array(data["outcome"]).shape == (2, 4)
-    assert data["labels"] == {"0": "oscillation", "1": "full rotation"}
-    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+def open_branch_start(system, theta1, rate):
+    """A consistent start with the coupler above the line AD (elbow up), from the triangle A-B-D.
+
+    theta2 = angle(D - A) + alpha with cos alpha = (l2^2 + |AD|^2 - l3^2) / (2 l2 |AD|), and
+    theta3 = angle(B - D); Newton and (9) then make it exact.
+    """
+    lengths = parameter_values(system)
+    a = lengths["l1"] * np.array([math.cos(theta1), math.sin(theta1)])
+    to_d = np.array([lengths["l0"], 0.0]) - a
+    distance = math.hypot(*to_d)
+    alpha = math.acos((lengths["l2"] ** 2 + distance ** 2 - lengths["l3"] ** 2) / (2 * lengths["l2"] * distance))
+    theta2 = math.atan2(to_d[1], to_d[0]) + alpha
+    b = a + lengths["l2"] * np.array([math.cos(theta2), math.sin(theta2)])
+    theta3 = math.atan2(b[1], b[0] - lengths["l0"])
+    return consistent_initial_state(system, [theta1], [rate], [theta2, theta3])
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--phi0", "0:1", "--dphi0", "0:3:5"], "phi0: expected START:STOP:N, got '0:1'"),
-    (["--phi0", "0:1:0", "--dphi0", "0:3:5"], "phi0: N must be an integer >= 1, got 0"),
-    (["--phi0", "0:1:2.5", "--dphi0", "0:3:5"], "phi0: N must be an integer >= 1, got '2.5'"),
-    (["--phi0", "1:0:4", "--dphi0", "0:3:5"], "phi0: STOP must be > START"),
-    (["--phi0", "0:7:4", "--dphi0", "0:3:5"], "phi0: the range must lie inside [0, 2pi]"),
-    (["--phi0=-1:2:4", "--dphi0", "0:3:5"], "phi0: the range must lie inside [0, 2pi]"),
-    (["--phi0", "0:2pi:4", "--dphi0=-1:3:5"], "dphi0: START must be >= 0"),
-    (["--phi0", "0:x:4", "--dphi0", "0:3:5"], "phi0: expected a number, got 'x'"),
-    (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--t-end", "0"], "t_end: must be a finite number > 0 s"),
-    (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--png", "map.svg"], "png: the figure is written as PNG"),
-    (["--phi0", "0:2pi:4"], "the following arguments are required: --dphi0"),
-])
-def test_basin_bad_input_is_one_line_and_exit_2(args, message, capsys):
-    assert main(["basin", *args]) == 2
-    captured = capsys.readouterr()
-    lines = captured.err.splitlines()
-    assert captured.out == "" and len(lines) == 1
-    assert lines[0].startswith("closedloop: error: ") and message in lines[0]
+@pytest.fixture(scope="module")
+def cells():
+    angles, rates = np.meshgrid(ANGLES, RATES)
+    return angles.ravel(), rates.ravel()
 
 
-def test_map_figure_marks_the_four_cases_where_they_are():
-    from closedloop.plotting import plot_basin_map
-
-    whole = basin_map(grid_values(0.0, 2 * math.pi, 4), grid_values(0.0, 3.0, 3), 1.0)
-    ax = plot_basin_map(whole).axes[0]
-    marked = {(round(x, 9), round(y, 9)) for line in ax.lines for x, y in zip(*line.get_data())}
-    assert marked == {(round(c.phi0, 9), round(c.dphi0, 9)) for c in CASES.values()}
-    assert sorted(t.get_text() for t in ax.texts) == ["1", "2", "3", "4"]
-    # a map drawn over [0.7 pi, 1.1 pi] x [0.55, 1.55] rad/s holds only cases 1 and 4
-    part = basin_map(grid_values(0.8 * math.pi, 1.2 * math.pi, 2), grid_values(0.8, 1.8, 2), 1.0)
-    assert sorted(t.get_text() for t in plot_basin_map(part).axes[0].texts) == ["1", "4"]
+@pytest.fixture(scope="module")
+def batch(four_bar, cells):
+    return integrate_outcomes(four_bar, *cells, T_END, initial_state=open_branch_start)
 
 
-def test_progress_bar_only_on_a_terminal(monkeypatch, capsys):
-    import io
-    import sys
+@pytest.fixture(scope="module")
+def reference_excursions(four_bar, cells):
+    """max |theta1(t) - theta1(0)| of one simulate() run per cell, stopped once past 2 pi + 0.5 rad."""
+    limit = FULL_TURN + 0.5
+    excursions = []
+    for angle, rate in zip(*cells):
+        result = simulate(four_bar, open_branch_start(four_bar, angle, rate), T_END, formulation=Minimal(),
+                          method="DOP853", rtol=1e-10, atol=1e-10,
+                          stop_when=lambda t, s, sd: abs(s[0] - angle) - limit)
+        excursions.append(np.max(np.abs(result.coordinate("theta1") - angle)))
+    return np.array(excursions)
 
-    class Terminal(io.StringIO):
-        def isatty(self):
-            return True
 
-    terminal = Terminal()
-    monkeypatch.setattr(sys, "stderr", terminal)
-    assert main(["basin", "--phi0", "0:2pi:2", "--dphi0", "0:1:1", "--t-end", "0.5"]) == 0
-    bar = terminal.getvalue()
-    assert bar.startswith("\r[") and "100 %" in bar and bar.endswith("\n")
-    assert "[" + "#" * 40 + "]" in bar
-    assert "\r" not in capsys.readouterr().out                # the bar never goes to stdout
+def test_the_grid_holds_both_outcomes_away_from_the_boundary(reference_excursions):
+    """The agreement below is only worth something if both outcomes occur and no cell is a near miss."""
+    rotating = reference_excursions >= FULL_TURN
+    assert 0.2 < np.mean(rotating) < 0.8
+    assert np.min(np.abs(reference_excursions - FULL_TURN)) > 0.3
+
+
+def test_every_four_bar_cell_gets_the_outcome_of_its_own_simulate_run(batch, reference_excursions):
+    expected = (reference_excursions >= FULL_TURN).astype(int)
+    np.testing.assert_array_equal(batch.codes, expected)
+    swinging = expected == 0
+    # both see a swing's peak at their step ends only (0.02 s apart in the batch), so a little short of it
+    np.testing.assert_allclose(batch.excursion[swinging], reference_excursions[swinging], rtol=0, atol=0.01)
+    assert np.all(batch.excursion[~swinging] >= FULL_TURN)
+    assert np.all(batch.decided_at[~swinging] < T_END) and np.all(np.isnan(batch.decided_at[swinging]))
+    assert batch.max_constraint_error < 1e-10 and batch.switch_events.sum() == 0      # no switched force
+
+
+def test_the_per_cell_reference_classifies_the_four_bar_too(four_bar, batch, cells):
+    """reference_outcome follows the independent coordinate, whatever its name (theta1 here)."""
+    for k in (0, 7, 14, 21, 35):                           # swings and turns, across the grid
+        code = reference_outcome(four_bar, cells[0][k], cells[1][k], T_END, initial_state=open_branch_start)
+        assert MOTIONS[code] == MOTIONS[batch.codes[k]]
+    assert {int(batch.codes[k]) for k in (0, 7, 14, 21, 35)} == {0, 1}
+
+
+def test_a_system_other_than_the_slider_crank_must_say_how_it_starts(four_bar):
+    with pytest.raises(InputError, match=r"initial_state: needed for a system other than the slider-crank"):
+        integrate_outcomes(four_bar, [0.0], [1.0], 1.0)
+
+
+def test_a_start_that_moves_the_independent_coordinate_is_refused(four_bar):
+    def shifted(system, theta1, rate):
+        return open_branch_start(system, theta1 + 0.1, rate)
+
+    with pytest.raises(InputError, match=r"initial_state: returned q = 0\.1.*must keep them"):
+        integrate_outcomes(four_bar, [0.0], [1.0], 1.0, initial_state=shifted)

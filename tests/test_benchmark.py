@@ -1,33 +1,26 @@
-"""closedloop benchmark: the quick study through the CLI, its rows, and the tables read from rows.
+"""closedloop benchmark: the study's rows, the tables read from rows, and the rules that prune it.
 
-The quick study runs once for the whole module (case 2, DOP853, four tolerances, one repeat).
-No test here asserts a speed: timings on a shared machine are noise. The speed-up is printed
-by the command itself.
+The quick study runs once per session (``quick_benchmark`` in conftest.py: case 2, DOP853 and
+ode.dop853, three tolerances, one repeat); the command's printed tables and figures are checked
+in test_cli.py. No test here asserts a speed: timings on a shared machine are noise.
 """
 
-import contextlib
-import io
-import json
 import re
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
-from closedloop.studies.benchmark import (BASELINE_KEY, QUICK_SETTINGS, cheapest_choices, performance_ratios,
-                                  source_fingerprint, study_entries)
-from closedloop.cli import main
+from closedloop.studies.benchmark import (BASELINE_KEY, QUICK_SETTINGS, REFERENCE_METHOD, REFERENCE_TOL, Entry,
+                                          StudySettings, cheapest_choices, performance_ratios, run_study,
+                                          source_fingerprint, study_entries)
 
 REQUIRED = ("case", "formulation", "method", "rtol", "cpu_s", "error_t10", "max_constraint_error", "nfev")
 
 
 @pytest.fixture(scope="module")
-def quick(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("benchmark")
-    path = folder / "rows.json"
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        status = main(["benchmark", "--quick", "--json", str(path), "--figures", str(folder / "figures")])
-    assert status == 0, err.getvalue()
-    return json.loads(path.read_text()), out.getvalue(), folder / "figures"
+def quick(quick_benchmark):
+    return quick_benchmark
 
 
 def curve(data, key, method="DOP853"):
@@ -101,15 +94,6 @@ def test_the_sympy_baseline_is_the_same_mechanism(quick):
     assert 0.1 < rows[1e-9]["error_t10"] / library[1e-9]["error_t10"] < 10
 
 
-def test_the_command_prints_the_tables_and_writes_the_figures(quick):
-    _, text, figures = quick
-    assert "Cheapest choice per accuracy level" in text
-    assert "case 2:" in text and "baseline CPU / best library CPU" in text
-    names = sorted(p.name for p in figures.iterdir())
-    assert names == ["best_per_formulation.png", "residuals_case2.png", "work_precision_case2.png"]
-    assert all((figures / n).read_bytes()[:4] == b"\x89PNG" for n in names)
-
-
 def fake(case, key, cpu, error):
     return {"case": case, "formulation": key, "label": key, "method": "RK45", "rtol": 1e-6, "status": "ok",
             "cpu_s": cpu, "error_t10": error}
@@ -128,50 +112,41 @@ def test_cheapest_choice_and_ratio_from_rows():
     assert ratios[2]["ratio"] is None and ratios[2]["library"] is None
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--json", "/no/such/folder/rows.json"], "json: the folder of"),
-    (["--figures", __file__], "figures: .* is not a folder"),
-    (["--repeats", "3"], "unrecognized arguments"),
-])
-def test_bad_input_is_one_line_and_exit_2(capsys, args, message):
-    assert main(["benchmark", "--quick", *args]) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and err.startswith("closedloop: error:")
-    assert re.search(message, err)
-
-
-def test_error_t10_comes_from_the_timed_run_whose_cpu_time_is_recorded():
+def test_error_t10_comes_from_the_timed_run_whose_cpu_time_is_recorded(quick):
     """ode.dop853 stops at every output time, so its 2001-point grid run is far more accurate
-    than the timed run (outputs at 10 s and 20 s): the row must report the timed run's error."""
-    import numpy as np
+    than the timed run (outputs at 10 s and 20 s): the row must report the timed run's error.
 
-    from closedloop import simulate
-    from closedloop.studies.benchmark import _Context, _measure, _reference
+    The rows are those of the quick study; the reference is recomputed here as the study
+    computes it (minimal coordinates, REFERENCE_METHOD, rtol = atol = REFERENCE_TOL, on its grid).
+    """
+    from closedloop import Minimal, simulate
     from closedloop.formulations import ClosedForm
     from closedloop.slider_crank import get_case, initial_state, slider_crank_system
 
     system = slider_crank_system()
     case = get_case(2)
     state = initial_state(system, case.phi0, case.dphi0)
-    grid = np.linspace(0.0, 20.0, 2001)
-    reference, _ = _reference(system, state, grid, 1000)
-    context = _Context(system, None, state, grid, 1000, reference)
-    entry = next(e for e in study_entries() if e.key == "closed-form")
+    grid = np.linspace(0.0, QUICK_SETTINGS.t_end, QUICK_SETTINGS.grid_points)
+    at_10 = int(np.argmin(np.abs(grid - QUICK_SETTINGS.t_check)))
+    assert (grid.size, at_10, grid[at_10]) == (2001, 1000, 10.0)
+    run = simulate(system, state, 20.0, formulation=Minimal(), method=REFERENCE_METHOD, rtol=REFERENCE_TOL,
+                   atol=REFERENCE_TOL, t_eval=grid)
+    reference = np.concatenate((run.s[:, at_10], run.sd[:, at_10]))
     timed = simulate(system, state, 20.0, formulation=ClosedForm(1, 1), method="ode.dop853", rtol=1e-6,
                      atol=1e-6, t_eval=(10.0, 20.0))
     on_grid = simulate(system, state, 20.0, formulation=ClosedForm(1, 1), method="ode.dop853", rtol=1e-6,
                        atol=1e-6, t_eval=grid)
-    timed_error = np.abs(np.concatenate((timed.s[:, 0], timed.sd[:, 0])) - reference[:, 1000]).max()
-    grid_error = np.abs(np.concatenate((on_grid.s[:, 1000], on_grid.sd[:, 1000])) - reference[:, 1000]).max()
+    timed_error = np.abs(np.concatenate((timed.s[:, 0], timed.sd[:, 0])) - reference).max()
+    grid_error = np.abs(np.concatenate((on_grid.s[:, at_10], on_grid.sd[:, at_10])) - reference).max()
     assert grid_error < timed_error / 100          # the grid run is not the run that was timed
-    row = _measure(entry, context, 2, "ode.dop853", 1e-6, repeats=1)
+    row = curve(quick[0], "closed-form", "ode.dop853")[1e-6]
     assert row["error_t10"] == timed_error and row["nfev"] < on_grid.nfev / 10
     # for a solve_ivp method the grid is interpolated: the same steps, the same value at 10 s
-    row = _measure(entry, context, 2, "DOP853", 1e-6, repeats=1)
+    row = curve(quick[0], "closed-form", "DOP853")[1e-6]
     on_grid = simulate(system, state, 20.0, formulation=ClosedForm(1, 1), method="DOP853", rtol=1e-6,
                        atol=1e-6, t_eval=grid)
-    assert row["error_t10"] == np.abs(np.concatenate((on_grid.s[:, 1000], on_grid.sd[:, 1000]))
-                                      - reference[:, 1000]).max()
+    assert row["error_t10"] == np.abs(np.concatenate((on_grid.s[:, at_10], on_grid.sd[:, at_10]))
+                                      - reference).max()
 
 
 def test_the_baseline_keeps_its_own_methods_in_every_case():
@@ -194,14 +169,28 @@ def test_the_baseline_keeps_its_own_methods_in_every_case():
     ((3e-4, 2e-5, 1.9e-5, 1.8e-5, 1.8e-5, 1.8e-5, 1e-9), 6),
 ])
 def test_the_plateau_rule_stops_only_at_an_error_floor(monkeypatch, errors, rows_run):
-    import closedloop.studies.benchmark as benchmark
+    """run_study on one contestant whose error at 10 s is prescribed per tolerance.
+
+    ``simulate`` as the study calls it (``closedloop.simulation.simulate``) is replaced by a
+    stand-in: the reference (minimal coordinates) is zero, the contestant is off by the error
+    of its rtol, everywhere.
+    """
+    import closedloop.simulation
+    from closedloop import Baumgarte, Minimal
 
     rtols = tuple(10.0 ** -k for k in range(3, 3 + len(errors)))
-    measured = iter(errors)
-    monkeypatch.setattr(benchmark, "_measure", lambda entry, context, case, method, rtol, repeats: {
-        "rtol": rtol, "status": "ok", "cpu_s": 0.001, "error_t10": next(measured)})
-    settings = benchmark.StudySettings(rtols=rtols, repeats=1)
-    rows = benchmark._curve(None, None, 2, "DOP853", settings)
+    error_at = dict(zip(rtols, errors))
+
+    def stand_in(system, state, t_end, formulation, method, rtol, atol, t_eval):
+        t = np.asarray(t_eval, dtype=float)
+        y = np.full((6, t.size), 0.0 if isinstance(formulation, Minimal) else error_at[rtol])
+        return SimpleNamespace(t=t, s=y[:3], sd=y[3:], nfev=1, cpu_time=0.0, constraint_error=np.zeros(t.size),
+                               velocity_constraint_error=np.zeros(t.size))
+
+    monkeypatch.setattr(closedloop.simulation, "simulate", stand_in)
+    settings = StudySettings(cases=(2,), methods=("DOP853",), rtols=rtols, repeats=1, grid_points=3)
+    rows = run_study(settings, entries=[Entry("contestant", "Contestant", Baumgarte())])["rows"]
+    assert [row["error_t10"] for row in rows] == list(errors[:len(rows)])
     assert len(rows) == rows_run
     assert rows[-1]["curve_end"] == ("tightest rtol" if rows_run == len(errors) else
                                      f"error plateau: not halved for {settings.plateau} tolerances")

@@ -1,13 +1,20 @@
-"""The closedloop command line: JSON, summary, figure, and one-line errors."""
+"""The closedloop command line, every subcommand: what it prints and writes, its help, and one-line errors.
+
+closedloop simulate, closedloop basin, closedloop benchmark (its study's rows are checked in
+test_benchmark.py; the same quick run, ``quick_benchmark`` in conftest.py, serves both).
+"""
 
 import json
 import math
+import re
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
-from closedloop.cli import main
+import closedloop.methods as methods
+from closedloop.cli import build_parser, main
 
 
 def run(*args):
@@ -15,6 +22,7 @@ def run(*args):
                           timeout=300)
 
 
+# -- closedloop simulate ----------------------------------------------------------------------
 def test_json_has_the_promised_fields_and_unwrapped_angles(capsys):
     assert main(["simulate", "--case", "2", "--json", "--method", "DOP853"]) == 0
     out = json.loads(capsys.readouterr().out)
@@ -81,3 +89,89 @@ def test_installed_command_prints_no_traceback_on_bad_input():
     assert done.returncode == 2
     assert done.stderr.strip() == "closedloop: error: t_end: must be a finite number > 0 s, got 0.0"
     assert "Traceback" not in done.stderr
+
+
+def test_the_command_line_help_lists_every_method(capsys):
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["simulate", "--help"])
+    help_text = capsys.readouterr().out
+    for name in methods.SOLVER_METHODS:
+        assert f" {name}," in help_text or f" {name} " in help_text
+    assert "ode.dop853" in help_text
+
+
+# -- closedloop basin -------------------------------------------------------------------------
+def test_basin_writes_json_and_png(tmp_path, capsys):
+    path, png = tmp_path / "map.json", tmp_path / "map.png"
+    assert main(["basin", "--phi0", "0:2pi:4", "--dphi0", "0.5:1.5:2", "--t-end", "6",
+                 "--json", str(path), "--png", str(png)]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == ""                                  # no progress bar when stderr is not a terminal
+    assert "4 x 2 cells" in captured.out and "full rotation:" in captured.out
+    data = json.loads(path.read_text())
+    assert set(data) >= {"phi0", "dphi0", "t_end", "outcome", "labels", "version", "cpu_s"}
+    assert data["phi0"] == pytest.approx([0.0, math.pi / 2, math.pi, 1.5 * math.pi])
+    assert data["dphi0"] == pytest.approx([0.5, 1.0]) and data["t_end"] == 6.0
+    assert np.array(data["outcome"]).shape == (2, 4)
+    assert data["labels"] == {"0": "oscillation", "1": "full rotation"}
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--phi0", "0:1", "--dphi0", "0:3:5"], "phi0: expected START:STOP:N, got '0:1'"),
+    (["--phi0", "0:1:0", "--dphi0", "0:3:5"], "phi0: N must be an integer >= 1, got 0"),
+    (["--phi0", "0:1:2.5", "--dphi0", "0:3:5"], "phi0: N must be an integer >= 1, got '2.5'"),
+    (["--phi0", "1:0:4", "--dphi0", "0:3:5"], "phi0: STOP must be > START"),
+    (["--phi0", "0:7:4", "--dphi0", "0:3:5"], "phi0: the range must lie inside [0, 2pi]"),
+    (["--phi0=-1:2:4", "--dphi0", "0:3:5"], "phi0: the range must lie inside [0, 2pi]"),
+    (["--phi0", "0:2pi:4", "--dphi0=-1:3:5"], "dphi0: START must be >= 0"),
+    (["--phi0", "0:x:4", "--dphi0", "0:3:5"], "phi0: expected a number, got 'x'"),
+    (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--t-end", "0"], "t_end: must be a finite number > 0 s"),
+    (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--png", "map.svg"], "png: the figure is written as PNG"),
+    (["--phi0", "0:2pi:4"], "the following arguments are required: --dphi0"),
+])
+def test_basin_bad_input_is_one_line_and_exit_2(args, message, capsys):
+    assert main(["basin", *args]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert captured.out == "" and len(lines) == 1
+    assert lines[0].startswith("closedloop: error: ") and message in lines[0]
+
+
+def test_basin_progress_bar_only_on_a_terminal(monkeypatch, capsys):
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    terminal = Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert main(["basin", "--phi0", "0:2pi:2", "--dphi0", "0:1:1", "--t-end", "0.5"]) == 0
+    bar = terminal.getvalue()
+    assert bar.startswith("\r[") and "100 %" in bar and bar.endswith("\n")
+    assert "[" + "#" * 40 + "]" in bar
+    assert "\r" not in capsys.readouterr().out                # the bar never goes to stdout
+
+
+# -- closedloop benchmark ---------------------------------------------------------------------
+def test_benchmark_prints_the_tables_and_writes_the_figures(quick_benchmark):
+    _, text, figures = quick_benchmark
+    assert "Cheapest choice per accuracy level" in text
+    assert "case 2:" in text and "baseline CPU / best library CPU" in text
+    names = sorted(p.name for p in figures.iterdir())
+    assert names == ["best_per_formulation.png", "residuals_case2.png", "work_precision_case2.png"]
+    assert all((figures / n).read_bytes()[:4] == b"\x89PNG" for n in names)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--json", "/no/such/folder/rows.json"], "json: the folder of"),
+    (["--figures", __file__], "figures: .* is not a folder"),
+    (["--repeats", "3"], "unrecognized arguments"),
+])
+def test_benchmark_bad_input_is_one_line_and_exit_2(capsys, args, message):
+    assert main(["benchmark", "--quick", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("closedloop: error:")
+    assert re.search(message, err)

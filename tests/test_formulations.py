@@ -1,4 +1,8 @@
-"""The four formulations solve the same motion: against each other and against an independent ODE."""
+"""The formulations solve the same motion: against each other and against an independent ODE; Baumgarte's
+gains, the multipliers, and minimal coordinates' one ODE for one state and a batch.
+
+The closed form (26) and the projection have their own files, test_closed_form.py and test_projection.py.
+"""
 
 import math
 
@@ -8,6 +12,8 @@ from scipy.integrate import solve_ivp
 
 from closedloop import (Augmented, Baumgarte, InputError, Minimal, Orthogonal, baumgarte_from_step,
                         consistent_initial_state, simulate)
+from closedloop.formulations.minimal import MinimalUnpacker, minimal_accelerations
+from closedloop.linalg import orthogonal_complement_many
 from closedloop.slider_crank import CASES, initial_state
 
 FORMULATIONS = [Augmented(), Baumgarte(5, 5), Baumgarte(10, 10), Orthogonal(5, 5), Minimal()]
@@ -109,3 +115,36 @@ def test_multiplier_lambda1_is_the_rod_force_on_the_slider_of_equation_31(slider
     lambda1 = 25.0 * x_acc - gas_force(x, x_dot)                # m3 = 25 kg
     assert smooth.sum() > 2500
     assert np.max(np.abs(result.multipliers[0, smooth] - lambda1[smooth])) < 1e-3 * np.max(np.abs(lambda1))
+
+
+def test_the_minimal_ode_is_one_function_for_one_state_and_a_batch(slider_crank):
+    states = [initial_state(slider_crank, angle, speed) for angle, speed in ((0.5, 1.0), (2.5, -0.7))]
+    one = [Minimal().accelerations(slider_crank, 0.3, state.s, state.sd) for state in states]
+    for state, accelerations in zip(states, one):         # the same s'' as the augmented system (12)
+        np.testing.assert_allclose(accelerations, slider_crank.constrained_accelerations(0.3, state.s, state.sd)[0],
+                                   rtol=1e-11, atol=1e-12)
+    s = np.column_stack([state.s for state in states])
+    sd = np.column_stack([state.sd for state in states])
+    M, p1, _, Phi, gamma = slider_crank.dynamics_many(0.3, s, sd)
+    p1 = p1 + np.column_stack([slider_crank.force(0.3, state.s, state.sd, slider_crank.force.mode_at(
+        0.3, state.s, state.sd)) for state in states])
+    R = orthogonal_complement_many(Phi, slider_crank.q_index, slider_crank.z_index)
+    qdd, c = minimal_accelerations(M, p1, Phi, gamma, R, slider_crank.z_index)
+    batch = np.einsum("ilk,lk->ik", R, qdd) + c
+    np.testing.assert_allclose(batch, np.column_stack(one), rtol=1e-12, atol=1e-13)
+
+
+def test_the_minimal_unpacker_is_an_object_with_seed_and_with_R(slider_crank):
+    state = initial_state(slider_crank, 1.0, 2.0)
+    unpack = Minimal().unpacker(slider_crank)
+    assert isinstance(unpack, MinimalUnpacker)
+    unpack.seed(state.s)
+    y = Minimal().pack(slider_crank, state.s, state.sd)
+    s, sd = unpack(y, 0.0)
+    np.testing.assert_allclose(s, state.s, atol=1e-14)
+    np.testing.assert_allclose(sd, state.sd, atol=1e-14)
+    again, R = unpack.with_R(y, 0.0)
+    assert again is s                                 # the same y costs nothing: the last solution comes back
+    assert R[0, 0] == 1.0 and R[2, 0] == pytest.approx(state.sd[2] / state.sd[0], rel=1e-13)   # x_C' = R_x phi'
+    moved, _ = unpack(y + np.array([0.01, 0.0]), 0.01)  # Newton follows q from the prediction
+    assert moved[0] == 1.01 and 2.0 * math.sin(1.01) == pytest.approx(3.5 * math.sin(moved[1]), abs=1e-14)

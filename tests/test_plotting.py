@@ -1,12 +1,24 @@
-"""Figures and the animation the book shows: right content, and nothing fetched from the network."""
+"""Every figure and animation the book shows: right content, nothing fetched from the network,
+matplotlib imported only by a figure, and every plotting name the book imports exported.
 
+The slider-crank, the four-bar and the basin map; the figures the benchmark command writes are
+checked with the command in test_cli.py.
+"""
+
+import math
 import re
 
 import numpy as np
+import pytest
 
 from closedloop import simulate
-from closedloop.plotting import animate_slider_crank, plot_slider_crank, slider_crank_points
+from closedloop.four_bar import parameter_values
+from closedloop.plotting import (animate_four_bar, animate_slider_crank, four_bar_points, plot_basin_map,
+                                 plot_slider_crank, slider_crank_points)
 from closedloop.slider_crank import CASES, initial_state
+from closedloop.studies.basin import basin_map, grid_values
+
+from .conftest import PARALLELOGRAM
 
 
 def test_drawn_joints_close_the_loop(slider_crank):
@@ -35,6 +47,26 @@ def test_paper_style_figure_has_its_five_panels(slider_crank):
     assert len(figure.axes) == 5
     assert figure.axes[-1].get_yscale() == "log"
     assert np.allclose(figure.axes[2].lines[0].get_ydata(), result.coordinate("x"))
+
+
+def test_four_bar_drawing_closes_the_loop_and_animates(parallelogram, parallelogram_swing):
+    _, result = parallelogram_swing
+    lengths = parameter_values(parallelogram)
+    points = four_bar_points(result.s[:, 123], lengths)
+    assert np.linalg.norm(points[2] - points[3]) == pytest.approx(PARALLELOGRAM["l3"], abs=1e-9)   # |BD| = l3
+    html = animate_four_bar(result, lengths, frames=5)
+    assert html.count("data:image/png;base64") == 5 and "maxcdn" not in html
+
+
+def test_map_figure_marks_the_four_cases_where_they_are():
+    whole = basin_map(grid_values(0.0, 2 * math.pi, 4), grid_values(0.0, 3.0, 3), 1.0)
+    ax = plot_basin_map(whole).axes[0]
+    marked = {(round(x, 9), round(y, 9)) for line in ax.lines for x, y in zip(*line.get_data())}
+    assert marked == {(round(c.phi0, 9), round(c.dphi0, 9)) for c in CASES.values()}
+    assert sorted(t.get_text() for t in ax.texts) == ["1", "2", "3", "4"]
+    # a map drawn over [0.7 pi, 1.1 pi] x [0.55, 1.55] rad/s holds only cases 1 and 4
+    part = basin_map(grid_values(0.8 * math.pi, 1.2 * math.pi, 2), grid_values(0.8, 1.8, 2), 1.0)
+    assert sorted(t.get_text() for t in plot_basin_map(part).axes[0].texts) == ["1", "4"]
 
 
 def test_simulating_never_imports_matplotlib_and_a_figure_does():

@@ -1,4 +1,10 @@
-"""Kinematic singularities: where Phi_z and Phi_s lose rank, what fails there, and the remedy."""
+"""Kinematic singularities: where Phi_z and Phi_s lose rank, what fails there, and the remedy.
+
+Dead positions (Phi_z singular, Phi_s of full rank) of a rocking slider-crank and a rocking
+four-bar, which the null-space formulation passes; near a bifurcation of the slider-crank
+(l2 -> l1), a clear error. The change points of a parallelogram four-bar, where Phi_s itself
+loses rank, are in test_change_points.py.
+"""
 
 import math
 
@@ -7,9 +13,13 @@ import pytest
 import sympy as sp
 
 from closedloop import (Augmented, Baumgarte, InitialState, InputError, Minimal, NullSpace, Orthogonal,
-                        SingularConfigurationError, derive, formulation_from_name, null_space_basis, simulate)
+                        SingularConfigurationError, System, consistent_initial_state, derive, formulation_from_name,
+                        null_space_basis, simulate)
+from closedloop.four_bar import four_bar_model
 from closedloop.model import condition_number
 from closedloop.slider_crank import SliderCrankParameters, initial_state, slider_crank_model, slider_crank_system
+
+from .conftest import PARALLELOGRAM
 
 ROCKING = SliderCrankParameters(l2=1.5, a2=0.75, full_rotation=False)      # l2/l1 = 0.75
 
@@ -125,3 +135,29 @@ def test_baumgarte_near_the_bifurcation_stops_with_a_clear_error_instead_of_chan
     assert np.max(np.cos(tight.coordinate("psi"))) < 0        # stayed on the paper's branch
     energy = system.energy(tight.s, tight.sd)
     assert np.ptp(energy) < 1e-4 * np.max(np.abs(energy))
+
+
+def test_null_space_passes_the_dead_positions_of_a_rocking_four_bar_crank():
+    """l0 = 3.2: not Grashof; the crank rocks, turning where coupler and rocker line up.
+
+    There det Phi_z = 0 but Phi_s keeps its rank: a dead position of theta1, not a bifurcation.
+    The crank's limit follows from the triangle O B D with |BD| = l2 + l3.
+    """
+    data = dict(PARALLELOGRAM, l0=3.2)
+    rocking = System(four_bar_model(), data)
+    start = consistent_initial_state(rocking, [np.pi / 2], [2.0], [0.0, np.pi / 2])
+    t = np.linspace(0.0, 3.0, 3001)
+    result = simulate(rocking, start, 3.0, formulation=NullSpace(5, 5), method="DOP853", rtol=1e-10,
+                      atol=1e-10, t_eval=t)
+    l0, l1, l2, l3 = (data[k] for k in ("l0", "l1", "l2", "l3"))
+    limit = np.arccos((l0**2 + l1**2 - (l2 + l3) ** 2) / (2 * l0 * l1))
+    crank = result.coordinate("theta1")
+    assert len(result.partition_singularities) >= 3
+    at_dead = np.interp(result.partition_singularities, t, np.abs(crank))
+    assert np.max(np.abs(at_dead - limit)) < 1e-4
+    assert np.max(np.abs(crank)) < limit + 1e-8
+    assert result.max_constraint_error < 1e-8
+    energy = rocking.energy(result.s, result.sd)
+    assert np.max(np.abs(energy - energy[0])) < 1e-7 * abs(energy[0])
+    with pytest.raises(SingularConfigurationError, match="use the NullSpace formulation"):
+        simulate(rocking, start, 3.0, formulation=Minimal(), method="DOP853", rtol=1e-10, atol=1e-10)

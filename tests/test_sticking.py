@@ -1,4 +1,9 @@
-"""Long runs into the sticking state: event handling against a naive if-statement, and tolerance independence."""
+"""Switching, sticking and release of the slider: events against a naive if-statement, tolerance
+independence, the evaluation cap, a slider held to any t_end, and its release by the holding force.
+
+The notes' sticking times of cases 3 and 1 (28.4 s, 37.8 s) have their home in test_paper_cases.py;
+the tests here compare runs with each other (tolerances, switching rules, t_end).
+"""
 
 import math
 
@@ -112,3 +117,32 @@ def test_a_stuck_slider_is_held_to_any_t_end_in_constant_work(slider_crank, t_en
     assert long.sticking_intervals[-1][1] == t_end and long.t[-1] == t_end
     assert long.t.size == short.t.size and long.nfev == short.nfev
     assert np.all(long.sd[:, -1] == 0.0) and np.array_equal(long.s[:, -1], short.s[:, -1])
+
+
+def test_a_stuck_slider_is_released_where_the_holding_force_reaches_its_limit():
+    """A torque ripple large enough to free the slider: stick, release, and carry on.
+
+    At the release the slider is at rest, and the acceleration of x_C on one of the two
+    branches (gas force off, or on) passes through zero: the holding force has reached 0
+    or F_gas(x). This is computed here from (12) at the held state, independently of the
+    sticking rule's own root finding.
+    """
+    from closedloop.slider_crank import OMEGA, GasForce, SliderCrankParameters, SliderCrankSystem, get_reading
+
+    reading, parameters = get_reading("thousands-opposing"), SliderCrankParameters()
+    values = dict(parameters.as_dict(), torque_mean=reading.torque_mean, torque_ripple=3e5, omega=OMEGA)
+    system = SliderCrankSystem(parameters, reading, values, GasForce(reading))
+    result = simulate(system, initial_state(system, math.pi, 1.0), 5.0)
+    released = [e for e in result.switch_events if e.action == "released"]
+    assert released and result.t[-1] == 5.0
+    start, end = result.sticking_intervals[0]
+    assert end == pytest.approx(released[0].t) and end - start > 0.05
+    held = result.s[:, np.searchsorted(result.t, start, side="right")]
+    rest = np.zeros(3)
+    x_acc = [system.constrained_accelerations(end, held, rest, (on, held[2] > 5))[0][2] for on in (False, True)]
+    before = [system.constrained_accelerations(start, held, rest, (on, held[2] > 5))[0][2] for on in (False, True)]
+    assert min(abs(a) for a in x_acc) < 1e-6 * max(abs(a) for a in before)
+    moving = result.t > end + 0.01
+    assert np.max(np.abs(result.sd[2, moving])) > 0.01           # it does move again
+    assert result.max_constraint_error < 1e-5
+

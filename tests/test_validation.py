@@ -1,4 +1,8 @@
-"""Bad input: a clear error naming the parameter and its range, raised before any integration."""
+"""Bad input: a clear error naming the parameter, its range and the value, raised before any integration;
+Python and numpy numbers accepted alike.
+
+The command line's one-line errors are checked in test_cli.py.
+"""
 
 import math
 
@@ -6,8 +10,11 @@ import numpy as np
 import pytest
 
 import closedloop.simulation.solve_ivp_runner as solve_ivp_runner
-from closedloop import Baumgarte, InitialState, InputError, Orthogonal, formulation_from_name, simulate
+import closedloop.validation as validation
+from closedloop import (Baumgarte, InitialState, InputError, Orthogonal, System, baumgarte_from_step,
+                        formulation_from_name, simulate)
 from closedloop.slider_crank import SliderCrankParameters, get_case, get_reading, initial_state
+from closedloop.studies.basin import basin_map
 
 
 @pytest.fixture(autouse=True)
@@ -76,3 +83,75 @@ def test_unknown_names_are_refused_with_the_choices(slider_crank, state):
 def test_an_inconsistent_initial_state_is_refused(slider_crank):
     with pytest.raises(InputError, match=r"^initial_state: not consistent"):
         simulate(slider_crank, InitialState(np.array([math.pi, math.pi, 2.0]), np.zeros(3)), 1.0)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"t_end": 0.0}, "t_end: must be a finite number > 0"),
+    ({"step": -0.1}, "step: must be a finite number > 0"),
+    ({"step": 30.0}, "step: must be <= t_end"),
+    ({"workers": 0}, "workers: must be an integer"),
+])
+def test_basin_map_refuses_bad_input_before_integrating(kwargs, message):
+    with pytest.raises(InputError, match=message):
+        basin_map([1.0, 2.0], [0.5], **{"t_end": 20.0, **kwargs})
+    with pytest.raises(InputError, match="phi0: values must increase"):
+        basin_map([2.0, 1.0], [0.5])
+
+
+@pytest.mark.parametrize("value", [5, 5.0, np.int64(5), np.float64(5.0), np.float32(5.0)])
+def test_python_and_numpy_numbers_are_accepted_alike(value):
+    assert validation.finite_number("step", value, minimum=0.0, strict=True) == 5.0
+    assert isinstance(validation.positive_number("t_end", value), float)
+    assert SliderCrankParameters(m3=value).m3 == value
+
+
+@pytest.mark.parametrize("value", [np.int64(5), 5, np.int32(5)])
+def test_numpy_integers_are_integers(value):
+    assert validation.positive_integer("n_steps", value) == 5
+    assert type(validation.positive_integer("n_steps", value)) is int
+
+
+@pytest.mark.parametrize("value, shown", [(True, "True"), ("5", "'5'"), (None, "None"), (np.bool_(True), "True")])
+def test_bool_text_and_none_are_refused_with_the_parameter_named(value, shown):
+    with pytest.raises(InputError, match=rf"^step: must be a finite number > 0 s, got {shown}$"):
+        validation.positive_number("step", value, unit="s")
+    with pytest.raises(InputError, match=rf"^n_steps: must be an integer >= 1, got {shown}$"):
+        validation.positive_integer("n_steps", value)
+    with pytest.raises(InputError, match=r"^alpha: must be a finite number >= 0, got "):
+        Baumgarte(alpha=value)
+
+
+def test_each_message_names_the_range_and_the_value():
+    with pytest.raises(InputError, match=r"^g: must be a finite number >= 0 m/s\^2, got -9\.81$"):
+        SliderCrankParameters(g=-9.81)
+    with pytest.raises(InputError, match=r"^step: must be a finite number > 0 s, got nan$"):
+        validation.positive_number("step", np.float64("nan"), unit="s")
+    with pytest.raises(InputError, match=r"^workers: must be an integer from 1 to 8, got 9$"):
+        validation.integer("workers", 9, minimum=1, maximum=8)
+    with pytest.raises(InputError, match=r"^x: must be a finite number from 0 to 1, got 1\.5$"):
+        validation.finite_number("x", 1.5, minimum=0.0, maximum=1.0)
+    with pytest.raises(InputError, match=r"^basis: unknown 'lu'; choose one of svd, pivoted$"):
+        validation.one_of("basis", "lu", ("svd", "pivoted"))
+    with pytest.raises(InputError, match=r"^case: unknown \[1\]; choose one of 1, 2, 3, 4$"):
+        get_case([1])                                   # unhashable: refused, not a TypeError
+    with pytest.raises(InputError, match=r"^q0: need 1 values, got 2$"):
+        validation.finite_array("q0", [1.0, 2.0], size=1)
+    assert validation.finite_number("x", 1.0, minimum=0.0, maximum=1.0) == 1.0   # both bounds: closed
+    assert get_case(np.int64(2)).phi0 == math.pi / 2
+
+
+def test_numpy_numbers_reach_the_library_unrefused(slider_crank):
+    rule = baumgarte_from_step(np.float64(0.01))
+    assert (rule.alpha, rule.beta) == pytest.approx((100.0, 100.0 * math.sqrt(2.0)))
+    state = initial_state(slider_crank, np.float64(math.pi), np.int64(1))
+    assert state.sd[0] == 1.0 and state.s[2] == pytest.approx(1.5, abs=1e-14)   # x_C = l2 - l1 at phi = pi
+
+
+def test_the_energy_bookkeeping_refuses_another_system(slider_crank):
+    from closedloop.studies.energy import crank_landscape
+
+    values = dict(zip(map(str, slider_crank.model.parameters), slider_crank.parameter_values))
+    plain = System(slider_crank.model, values)
+    with pytest.raises(InputError, match=r"^system: expected a SliderCrankSystem, got System$"):
+        crank_landscape(plain, [0.0, 1.0])
+    assert crank_landscape(slider_crank, [0.0, 1.0]).slope[0] == pytest.approx(0.0, abs=1e-14)  # x_C' = 0 at phi = 0

@@ -1,4 +1,4 @@
-"""A parallelogram four-bar: it passes change points, where every link lies on the x axis.
+"""Change points: a parallelogram four-bar meets them where every link lies on the x axis.
 
 At a change point Phi_s itself loses rank and two assembly branches meet (a bifurcation), so
 every formulation must stop there with a clear error, at the time the crank reaches it.  The
@@ -15,19 +15,14 @@ from scipy.integrate import solve_ivp
 
 from closedloop import (Augmented, Baumgarte, ClosedForm, Minimal, NullSpace, Orthogonal, Projected,
                         SingularConfigurationError, System, consistent_initial_state, derive, simulate)
-from closedloop.four_bar import four_bar_model, parameter_values
+from closedloop.four_bar import four_bar_model
 from closedloop.kinematics import solve_dependent
-from closedloop.plotting import animate_four_bar, four_bar_points
 from closedloop.simulation.change_points import CHANGE_POINT_LIMIT
 
-DATA = {"l0": 3.0, "l1": 1.0, "l2": 3.0, "l3": 1.0, "m1": 1.0, "m2": 2.0, "m3": 1.0, "g": 9.81}
+from .conftest import PARALLELOGRAM, SWINGING
+
+DATA = PARALLELOGRAM
 OVER_THE_TOP = (np.pi / 2, 2.0)          # crank angle [rad] and rate [rad/s]: it turns over
-SWINGING = (-np.pi / 2, 3.0)             # at the bottom, too slow to reach theta1 = 0 or -pi
-
-
-@pytest.fixture(scope="module")
-def parallelogram():
-    return System(four_bar_model(), DATA)
 
 
 def pendulum(angle, rate, t_end, t_eval=None, events=None, data=DATA):
@@ -37,22 +32,6 @@ def pendulum(angle, rate, t_end, t_eval=None, events=None, data=DATA):
     moment = (m1 * l1 / 2 + m2 * l1 + m3 * l3 / 2) * g
     return solve_ivp(lambda t, y: [y[1], -moment / inertia * np.cos(y[0])], (0.0, t_end), [angle, rate],
                      method="DOP853", rtol=1e-12, atol=1e-12, t_eval=t_eval, events=events)
-
-
-@pytest.fixture(scope="module")
-def fold_time():
-    """When the compound pendulum started OVER_THE_TOP reaches the change point theta1 = pi."""
-    reference = pendulum(*OVER_THE_TOP, 5.0, events=lambda t, y: y[0] - np.pi)
-    return reference.t_events[0][0]
-
-
-@pytest.fixture(scope="module")
-def swing(parallelogram):
-    """A swing below the change points, in minimal coordinates: no fold is ever reached."""
-    start = consistent_initial_state(parallelogram, [SWINGING[0]], [SWINGING[1]], [0.0, SWINGING[0]])
-    t = np.linspace(0.0, 5.0, 1001)
-    return start, simulate(parallelogram, start, 5.0, formulation=Minimal(), method="DOP853",
-                           rtol=1e-11, atol=1e-11, t_eval=t)
 
 
 def test_phi_z_determinant_vanishes_exactly_at_the_change_point(parallelogram):
@@ -147,8 +126,8 @@ def test_every_path_stops_at_the_change_point(formulation, method, geometry, out
     assert _stop_time(caught.value) == pytest.approx(fold, abs=5e-4 if formulation.name == "minimal" else 1e-5)
 
 
-def test_swing_below_the_folds_stays_a_parallelogram_and_matches_the_pendulum(swing):
-    start, result = swing
+def test_swing_below_the_folds_stays_a_parallelogram_and_matches_the_pendulum(parallelogram_swing):
+    start, result = parallelogram_swing
     crank = result.coordinate("theta1")
     assert -np.pi + 0.5 < crank.min() and crank.max() < -0.5             # never near 0 or -pi
     assert result.max_constraint_error < 1e-12
@@ -157,49 +136,3 @@ def test_swing_below_the_folds_stays_a_parallelogram_and_matches_the_pendulum(sw
     assert np.max(np.abs(reference.y[0] - crank)) < 1e-7
     assert np.sum(np.diff(np.sign(result.velocity("theta1"))) != 0) >= 4   # several swings
 
-
-@pytest.mark.parametrize("formulation", [Minimal(), Baumgarte(5, 5)], ids=lambda f: f.name)
-def test_unforced_four_bar_conserves_energy_on_a_swing(parallelogram, formulation):
-    """No fold on the way: the minimal and the stabilised redundant runs both keep T + Pi."""
-    start = consistent_initial_state(parallelogram, [SWINGING[0]], [SWINGING[1]], [0.0, SWINGING[0]])
-    result = simulate(parallelogram, start, 5.0, formulation=formulation, method="DOP853", rtol=1e-11,
-                      atol=1e-11, t_eval=np.linspace(0.0, 5.0, 501))
-    energy = parallelogram.energy(result.s, result.sd)
-    initial = parallelogram.energy(start.s, start.sd)
-    assert abs(initial) > 10.0
-    assert np.max(np.abs(energy - initial)) / abs(initial) < 1e-9
-
-
-def test_null_space_passes_the_dead_positions_of_a_rocking_crank():
-    """l0 = 3.2: not Grashof; the crank rocks, turning where coupler and rocker line up.
-
-    There det Phi_z = 0 but Phi_s keeps its rank: a dead position of theta1, not a bifurcation.
-    The crank's limit follows from the triangle O B D with |BD| = l2 + l3.
-    """
-    data = dict(DATA, l0=3.2)
-    rocking = System(four_bar_model(), data)
-    start = consistent_initial_state(rocking, [np.pi / 2], [2.0], [0.0, np.pi / 2])
-    t = np.linspace(0.0, 3.0, 3001)
-    result = simulate(rocking, start, 3.0, formulation=NullSpace(5, 5), method="DOP853", rtol=1e-10,
-                      atol=1e-10, t_eval=t)
-    l0, l1, l2, l3 = (data[k] for k in ("l0", "l1", "l2", "l3"))
-    limit = np.arccos((l0**2 + l1**2 - (l2 + l3) ** 2) / (2 * l0 * l1))
-    crank = result.coordinate("theta1")
-    assert len(result.partition_singularities) >= 3
-    at_dead = np.interp(result.partition_singularities, t, np.abs(crank))
-    assert np.max(np.abs(at_dead - limit)) < 1e-4
-    assert np.max(np.abs(crank)) < limit + 1e-8
-    assert result.max_constraint_error < 1e-8
-    energy = rocking.energy(result.s, result.sd)
-    assert np.max(np.abs(energy - energy[0])) < 1e-7 * abs(energy[0])
-    with pytest.raises(SingularConfigurationError, match="use the NullSpace formulation"):
-        simulate(rocking, start, 3.0, formulation=Minimal(), method="DOP853", rtol=1e-10, atol=1e-10)
-
-
-def test_four_bar_drawing_closes_the_loop_and_animates(parallelogram, swing):
-    _, result = swing
-    lengths = parameter_values(parallelogram)
-    points = four_bar_points(result.s[:, 123], lengths)
-    assert np.linalg.norm(points[2] - points[3]) == pytest.approx(DATA["l3"], abs=1e-9)   # |BD| = l3
-    html = animate_four_bar(result, lengths, frames=5)
-    assert html.count("data:image/png;base64") == 5 and "maxcdn" not in html

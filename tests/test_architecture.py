@@ -1,4 +1,6 @@
-"""The package's layers: the engine knows no mechanism, study, figure or command; studies draw nothing.
+"""The package's architecture: its layers, one home for each list of names, and the old homes that still answer.
+
+The layers: the engine knows no mechanism, study, figure or command; studies draw nothing.
 
 An ``ast`` scan of every module of src/closedloop finds each import, absolute or relative, at
 module level or inside a function, and resolves it to the full module name it reaches.
@@ -16,6 +18,11 @@ from pathlib import Path
 import pytest
 
 import closedloop
+import closedloop.methods as methods
+from closedloop import simulation
+from closedloop.formulations.projected import PROJECTABLE_METHODS
+from closedloop.simulation import dop853
+from closedloop.studies import baseline, benchmark
 
 PACKAGE_ROOT = Path(closedloop.__file__).resolve().parent
 PACKAGE = "closedloop"
@@ -124,3 +131,28 @@ def test_the_scan_resolves_relative_imports_in_a_package_init():
     assert (line, statement, names[0]) == (1, "from .dop853 import run", "closedloop.simulation.dop853")
     [(_, _, names)] = imports_of("from .dop853 import run", "closedloop.simulation.runner")
     assert names[0] == "closedloop.simulation.dop853"
+
+
+# -- one home for each list of names ------------------------------------------------------------
+def test_every_list_of_methods_comes_from_one_place():
+    assert simulation.SOLVER_METHODS == methods.SOLVER_METHODS
+    assert methods.SOLVER_METHODS == ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", "ode.dop853")
+    assert dop853.METHOD == methods.COMPILED_METHOD
+    assert list(PROJECTABLE_METHODS) == ["RK23", "RK45", "DOP853"]
+    assert baseline.BASELINE_METHODS == methods.SOLVE_IVP_METHODS
+    assert benchmark.ALL_METHODS == ("RK45", "DOP853", "Radau", "BDF", "LSODA", "ode.dop853")
+    assert benchmark.EXPLICIT_RK == ("RK45", "DOP853")
+
+
+# -- old homes ----------------------------------------------------------------------------------
+def test_the_old_home_of_reading_outcomes_warns_and_gives_the_study():
+    """Readers' code of 0.1 imported the study from the mechanism; it still works, with a warning."""
+    import closedloop.slider_crank as slider_crank
+    from closedloop.studies.readings import reading_outcomes
+
+    with pytest.warns(DeprecationWarning, match=r"moved to closedloop\.studies\.readings"):
+        old = slider_crank.reading_outcomes
+    assert old is reading_outcomes
+    assert "reading_outcomes" not in slider_crank.__all__ and "ReadingOutcome" not in slider_crank.__all__
+    with pytest.raises(AttributeError, match="no_such_name"):
+        slider_crank.no_such_name

@@ -1,4 +1,8 @@
-"""Stiff Baumgarte gains: RK4's stability theory against the integration, step counts, clear errors."""
+"""The integrators: RK4's stability theory against the integration, stiff Baumgarte gains and step counts,
+output times, minimal coordinates kept on their branch, and clear errors when a run cannot go on.
+
+The compiled DOP853 ("ode.dop853") has its own file, test_ode_dop853.py.
+"""
 
 import re
 import math
@@ -196,3 +200,12 @@ def test_step_size_scales_inversely_with_crank_speed(slider_crank):
         result = simulate(slider_crank, state, 0.2, formulation=Baumgarte(), method="RK45", rtol=1e-8, atol=1e-8)
         medians.append(np.median(result.step_sizes))
     assert 2.5 < medians[0] / medians[1] < 6            # 200 / 50 = 4
+
+
+def test_output_times_may_end_before_t_end(slider_crank):
+    case = CASES[2]
+    result = simulate(slider_crank, initial_state(slider_crank, case.phi0, case.dphi0), 20.0, t_eval=[0.0, 0.5])
+    full = simulate(slider_crank, initial_state(slider_crank, case.phi0, case.dphi0), 0.5, t_eval=[0.5])
+    assert list(result.t) == [0.0, 0.5]
+    assert np.allclose(result.s[:, 1], full.s[:, 0], atol=1e-7)
+
