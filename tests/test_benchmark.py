@@ -171,11 +171,11 @@ def test_the_baseline_keeps_its_own_methods_in_every_case():
 def test_the_plateau_rule_stops_only_at_an_error_floor(monkeypatch, errors, rows_run):
     """run_study on one contestant whose error at 10 s is prescribed per tolerance.
 
-    ``simulate`` as the study calls it (``closedloop.simulation.simulate``) is replaced by a
-    stand-in: the reference (minimal coordinates) is zero, the contestant is off by the error
+    ``simulate`` as the study calls it (``closedloop.studies.benchmark.simulate``) is replaced by
+    a stand-in: the reference (minimal coordinates) is zero, the contestant is off by the error
     of its rtol, everywhere.
     """
-    import closedloop.simulation
+    import closedloop.studies.benchmark
     from closedloop import Baumgarte, Minimal
 
     rtols = tuple(10.0 ** -k for k in range(3, 3 + len(errors)))
@@ -187,7 +187,7 @@ def test_the_plateau_rule_stops_only_at_an_error_floor(monkeypatch, errors, rows
         return SimpleNamespace(t=t, s=y[:3], sd=y[3:], nfev=1, cpu_time=0.0, constraint_error=np.zeros(t.size),
                                velocity_constraint_error=np.zeros(t.size))
 
-    monkeypatch.setattr(closedloop.simulation, "simulate", stand_in)
+    monkeypatch.setattr(closedloop.studies.benchmark, "simulate", stand_in)
     settings = StudySettings(cases=(2,), methods=("DOP853",), rtols=rtols, repeats=1, grid_points=3)
     rows = run_study(settings, entries=[Entry("contestant", "Contestant", Baumgarte())])["rows"]
     assert [row["error_t10"] for row in rows] == list(errors[:len(rows)])

@@ -31,3 +31,17 @@ def test_the_turning_point_is_where_the_slope_vanishes():
         d1 = -np.sign(d0) * abs(rng.normal())
         u = turning_point(g0, g1, d0, d1)
         assert 0.0 <= u <= 1.0 and abs(slopes(u, g0, g1, d0, d1)) < 1e-9 * (1 + abs(d0) + abs(d1) + abs(g1 - g0))
+
+
+def test_the_earliest_of_three_zeros_is_found():
+    # A cubic is its own Hermite interpolant: (u - 0.2)(u - 0.5)(u - 0.9) has three zeros in [0, 1]
+    def g(u):
+        return (u - 0.2) * (u - 0.5) * (u - 0.9)
+
+    def slope(u):
+        return (u - 0.5) * (u - 0.9) + (u - 0.2) * (u - 0.9) + (u - 0.2) * (u - 0.5)
+
+    assert abs(first_root(g(0.0), g(1.0), slope(0.0), slope(1.0)) - 0.2) < 1e-12
+    assert abs(first_root(-g(0.0), -g(1.0), -slope(0.0), -slope(1.0)) - 0.2) < 1e-12
+    assert first_root(0.0, 1.0, 5.0, 1.0) == 0.0                        # already on the surface
+    assert abs(first_root(-1.0, 1.0, 2.0, 2.0) - 0.5) < 1e-12            # a straight line

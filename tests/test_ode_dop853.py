@@ -93,19 +93,3 @@ def test_case_3_sticks_at_the_same_time_as_with_solve_ivp(slider_crank):
     assert len(fast.sticking_intervals) == len(slow.sticking_intervals) == 1
     assert abs(fast.sticking_intervals[0][0] - slow.sticking_intervals[0][0]) < 1e-6
     assert abs(fast.sticking_intervals[0][0] - 28.446) < 1e-3
-
-
-def test_the_switch_estimate_is_the_first_zero_of_the_hermite_cubic():
-    from closedloop.hermite import first_root as _hermite_root
-
-    # A cubic is its own Hermite interpolant: (u - 0.2)(u - 0.5)(u - 0.9) has three zeros in [0, 1]
-    def g(u):
-        return (u - 0.2) * (u - 0.5) * (u - 0.9)
-
-    def slope(u):
-        return (u - 0.5) * (u - 0.9) + (u - 0.2) * (u - 0.9) + (u - 0.2) * (u - 0.5)
-
-    assert abs(_hermite_root(g(0.0), g(1.0), slope(0.0), slope(1.0)) - 0.2) < 1e-12
-    assert abs(_hermite_root(-g(0.0), -g(1.0), -slope(0.0), -slope(1.0)) - 0.2) < 1e-12
-    assert _hermite_root(0.0, 1.0, 5.0, 1.0) == 0.0                        # already on the surface
-    assert abs(_hermite_root(-1.0, 1.0, 2.0, 2.0) - 0.5) < 1e-12            # a straight line
