@@ -335,3 +335,16 @@ def test_ctrl_c_ends_simulate_in_one_line():
     process.send_signal(signal.SIGINT)
     out, err = process.communicate(timeout=30)
     assert (process.returncode, err, out) == (130, "closedloop: interrupted\n", "")
+
+
+def test_a_defect_of_the_library_is_one_line_not_a_traceback(monkeypatch, capsys):
+    """Whatever escapes the library's own errors (a bug) still ends in one line and exit 1."""
+    import closedloop.cli
+
+    def broken(args):
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(closedloop.cli, "run_simulate", broken)
+    assert closedloop.cli.main(["simulate", "--case", "1"]) == 1
+    assert capsys.readouterr().err == ("closedloop: error: internal error (ZeroDivisionError: a bug); please "
+                                       "report it with the command that caused it\n")

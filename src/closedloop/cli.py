@@ -527,6 +527,10 @@ def main(argv=None):
     except OSError as error:                   # a write outside closedloop.output, e.g. onto standard output
         _error(f"{error.filename}: {error.strerror}" if error.filename else error.strerror or error)
         return 1
+    except Exception as error:                 # a defect of closedloop itself: still one line, and no traceback
+        _error(f"internal error ({type(error).__name__}: {error}); please report it with the command that "
+               "caused it")
+        return 1
 
 
 def _run(argv):
