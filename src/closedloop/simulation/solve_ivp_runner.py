@@ -156,7 +156,7 @@ def _solve(run, rhs, t0, y0, events, reached, overflow):
             f"{options.method_name} could not locate a switch ({', '.join(run.names)}) in the step after "
             f"t = {_time_reached(run, t0):.6g} s (step {_last_step(run):.3g} s): a switching function changed "
             "sign between the ends of the step but not along its interpolant, so the step is too long for the "
-            "motion; try tighter tolerances, a max_step, or another formulation"
+            "motion; try tighter tolerances or a max_step"
         ) from None
 
 
