@@ -199,7 +199,9 @@ def _failure_message(run, message, t0, overflow):
         text = (f"{name} failed at t = {t:.6g} s: the step size underflowed (it must stay "
                 f"above 10 ulp(t) = {10 * np.spacing(abs(t)):.3g} s; the last accepted step was "
                 f"{step:.3g} s)")
-        advice = run.advice()
+        advice = (f"no step that float64 resolves at this t meets the tolerances, so the motion or a force is "
+                  f"most likely singular there: end the run before t = {t:.6g} s (an implicit method or looser "
+                  "tolerances do not carry a run through a singularity)")
     else:
         text = f"{name} failed at t = {t:.6g} s (last step {step:.3g} s): {message}"
         advice = run.advice()
