@@ -219,13 +219,14 @@ def run_simulate(args):
     """Carry out ``closedloop simulate``; returns the JSON-ready summary."""
     from .formulations import formulation_from_name
     from .simulation import simulate
+    from .simulation.options import methods_taking
     from .slider_crank import classify_motion, get_reading, initial_state, slider_crank_system
 
     case, phi0, dphi0 = _initial_condition(args)
     t_end = _positive("t_end", args.t_end, unit="s")
     rtol, atol = _positive("rtol", args.rtol), _positive("atol", args.atol)
-    one_of("method", args.method, SOLVER_METHODS)
     formulation = formulation_from_name(args.formulation, _number("alpha", args.alpha), _number("beta", args.beta))
+    one_of("method", args.method, methods_taking(formulation))
     reading = get_reading(args.reading)
     _check_figure_file("--plot", args.plot)
 

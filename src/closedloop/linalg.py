@@ -31,7 +31,8 @@ def solve_augmented(M, Phi, p1, p2, t=None):
     except np.linalg.LinAlgError:
         raise SingularConfigurationError(
             f"the augmented matrix of (12) is singular{at_time(t)}: the constraints are dependent "
-            "(a kinematic singularity, cond(Phi_s) = inf); try the minimal formulation or other coordinates"
+            "(cond(Phi_s) = inf: assembly branches meet, a change point) and no formulation of this library "
+            "passes it; end the run before it, or change the geometry"
         ) from None
     return x[:n], x[n:]
 

@@ -99,6 +99,6 @@ def _check_partition(run, result, t0):
         raise SingularConfigurationError(
             f"det Phi_z changed sign between t = {times[k]:.6g} s and t = {times[k + 1]:.6g} s with "
             f"{run.options.method_name}: the path crossed a configuration where R of (20) does not exist, "
-            "and this method cannot locate it or apply the branch guard; use a solve_ivp method "
-            "(the branch guard), or the NullSpace formulation"
+            "and this method cannot locate it or apply the branch guard; use a solve_ivp method, which "
+            f"has the branch guard, with {type(run.formulation).__name__} or with the NullSpace formulation"
         )

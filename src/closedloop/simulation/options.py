@@ -17,8 +17,8 @@ from ..methods import IMPLICIT_METHODS, SOLVER_METHODS
 from ..validation import finite_array, finite_number, is_real, positive_integer, shown
 from . import dop853
 
-__all__ = ["RunOptions", "run_options", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT", "MAX_STEPS",
-           "INITIAL_TOLERANCE", "IMPLICIT_METHODS"]
+__all__ = ["RunOptions", "run_options", "methods_taking", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT",
+           "MAX_STEPS", "INITIAL_TOLERANCE", "IMPLICIT_METHODS"]
 
 # The methods simulate() accepts by name (solve_ivp's, and "ode.dop853", the compiled DOP853 of
 # scipy.integrate.ode with events added by closedloop.simulation.dop853) come from
@@ -103,6 +103,19 @@ def _check_times(t_start, t_end, rtol, atol, sticking_resolution, branch_limit):
     return t_start, t_end, rtol, atol, sticking_resolution, float(branch_limit)
 
 
+def methods_taking(formulation, switching="events"):
+    """The names of the methods that simulate() runs with ``formulation`` and ``switching``."""
+    names = []
+    for name in SOLVER_METHODS:
+        try:
+            formulation.check_method(name)
+        except InputError:
+            continue
+        if name != dop853.METHOD or (switching != "naive" and formulation.guards_partition):
+            names.append(name)
+    return tuple(names)
+
+
 def _check_method(formulation, method, switching, options):
     if not isinstance(formulation, Formulation):
         raise InputError(
@@ -123,7 +136,8 @@ def _check_method(formulation, method, switching, options):
                 f"solve_ivp method with {type(formulation).__name__}"
             )
     if not (method in SOLVER_METHODS or (isinstance(method, type) and issubclass(method, OdeSolver))):
-        raise InputError(f"method: unknown {method!r}; choose one of {', '.join(SOLVER_METHODS)}")
+        raise InputError(f"method: unknown {method!r}; choose one of "
+                         f"{', '.join(methods_taking(formulation, switching))}")
     reserved = set(_RESERVED) & set(options)
     if reserved:
         raise InputError(f"solver options: {sorted(reserved)} are managed by simulate()")

@@ -201,7 +201,7 @@ class Run:
             stalls = stalls + 1 if rule.no_progress(end.t, t) else 0
             t, s, sd = end.t, end.s, end.sd
             if stalls > rule.MAX_STALLS:
-                raise rule.chattering_error(t, self.names[end.event], "loosen rtol or regularise the force")
+                raise rule.chattering_error(t, self.names[end.event], "tighten rtol and atol, or regularise the force")
             if end.event is None:
                 return
             if end.event == len(self.names):                 # stop_when fired

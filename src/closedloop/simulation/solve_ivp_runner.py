@@ -156,7 +156,7 @@ def _solve(run, rhs, t0, y0, events, reached, overflow):
             f"{options.method_name} could not locate a switch ({', '.join(run.names)}) in the step after "
             f"t = {_time_reached(run, t0):.6g} s (step {_last_step(run):.3g} s): a switching function changed "
             "sign between the ends of the step but not along its interpolant, so the step is too long for the "
-            "motion; try tighter tolerances, a max_step, or another formulation"
+            "motion; try tighter tolerances or a max_step"
         ) from None
 
 
@@ -199,7 +199,9 @@ def _failure_message(run, message, t0, overflow):
         text = (f"{name} failed at t = {t:.6g} s: the step size underflowed (it must stay "
                 f"above 10 ulp(t) = {10 * np.spacing(abs(t)):.3g} s; the last accepted step was "
                 f"{step:.3g} s)")
-        advice = run.advice()
+        advice = (f"no step that float64 resolves at this t meets the tolerances, so the motion or a force is "
+                  f"most likely singular there: end the run before t = {t:.6g} s (an implicit method or looser "
+                  "tolerances do not carry a run through a singularity)")
     else:
         text = f"{name} failed at t = {t:.6g} s (last step {step:.3g} s): {message}"
         advice = run.advice()
