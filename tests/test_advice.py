@@ -692,7 +692,7 @@ def test_command_line_method_choices(capsys):
 def test_command_line_figure_names(command, tmp_path, capsys):
     assert main([*command, str(tmp_path / "figure.pdf")]) == 2
     option = "plot" if command[0] == "simulate" else "png"
-    assert capsys.readouterr().err.strip() == (f"closedloop: error: {option}: the figure is written as PNG; give a "
+    assert capsys.readouterr().err.strip() == (f"closedloop: error: --{option}: the figure is written as PNG; give a "
                                                f"file name ending in .png, got '{tmp_path / 'figure.pdf'}'")
     assert main([*command, str(tmp_path / "figure.png")]) == 0
     assert (tmp_path / "figure.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
