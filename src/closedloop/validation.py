@@ -10,7 +10,9 @@ number > 0 s, got -0.1``.  Python and numpy numbers are accepted alike
 
 from __future__ import annotations
 
+import math
 import numbers
+import sys
 
 import numpy as np
 
@@ -24,7 +26,10 @@ def shown(value):
     """``value`` as an error message shows it: numpy scalars like the Python numbers they hold."""
     if isinstance(value, np.generic):
         value = value.item()
-    return repr(value)
+    try:
+        return repr(value)
+    except ValueError:                     # an int (or Fraction) beyond Python's limit of digits for str
+        return f"{type(value).__name__} of more than {sys.get_int_max_str_digits()} digits"
 
 
 def is_real(value):
@@ -69,7 +74,10 @@ def finite_number(name, value, *, minimum=None, maximum=None, strict=False, unit
         ``"{name}: must be a finite number{range}, got {value}"``.
     """
     if is_real(value):
-        number = float(value)
+        try:
+            number = float(value)
+        except OverflowError:              # an integer or Fraction beyond float's range (10**400)
+            number = math.inf
         inside = np.isfinite(number)
         if inside and minimum is not None:
             inside = number > minimum if strict and maximum is None else number >= minimum

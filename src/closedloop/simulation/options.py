@@ -99,7 +99,11 @@ def _check_times(t_start, t_end, rtol, atol, sticking_resolution, branch_limit):
     if not (is_real(branch_limit) and branch_limit > 0):
         raise InputError(f"branch_limit: must be a number > 0 (math.inf turns the guard off), got "
                          f"{shown(branch_limit)}")
-    return t_start, t_end, rtol, atol, sticking_resolution, float(branch_limit)
+    try:
+        branch_limit = float(branch_limit)
+    except OverflowError:                  # an integer beyond float's range (10**400): no limit
+        branch_limit = math.inf
+    return t_start, t_end, rtol, atol, sticking_resolution, branch_limit
 
 
 def _check_method(formulation, method, switching, options):
