@@ -19,17 +19,26 @@ import numpy as np
 from .errors import InputError
 
 __all__ = ["finite_number", "positive_number", "integer", "positive_integer", "one_of", "finite_array", "instance_of",
-           "is_real", "shown"]
+           "is_real", "shown", "shown_array"]
 
 
 def shown(value):
     """``value`` as an error message shows it: numpy scalars like the Python numbers they hold."""
     if isinstance(value, np.generic):
         value = value.item()
+    if isinstance(value, np.ndarray):
+        return shown_array(value)
     try:
-        return repr(value)
+        text = repr(value)
     except ValueError:                     # an int (or Fraction) beyond Python's limit of digits for str
         return f"{type(value).__name__} of more than {sys.get_int_max_str_digits()} digits"
+    return " ".join(line.strip() for line in text.splitlines()) if "\n" in text else text
+
+
+def shown_array(values):
+    """An array as an error message shows it: on one line, at most a dozen entries (``[1. nan ... 3.]``)."""
+    text = np.array2string(np.asarray(values), max_line_width=sys.maxsize, threshold=12, edgeitems=3)
+    return text.replace("\n", "")                # the rows of a 2-d array: "[[1. 2.] [3. 4.]]"
 
 
 def is_real(value):
@@ -161,5 +170,5 @@ def finite_array(name, value, *, size=None):
     if size is not None and array.shape != (size,):
         raise InputError(f"{name}: need {size} values, got {array.size}")
     if not np.all(np.isfinite(array)):
-        raise InputError(f"{name}: must be finite, got {array}")
+        raise InputError(f"{name}: must be finite, got {shown_array(array)}")
     return array

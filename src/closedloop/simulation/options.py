@@ -13,7 +13,7 @@ from ..errors import InputError
 from ..formulations import Formulation
 from ..kinematics import InitialState
 from ..methods import IMPLICIT_METHODS, SOLVER_METHODS
-from ..validation import finite_array, finite_number, is_real, positive_integer, shown
+from ..validation import finite_array, finite_number, is_real, positive_integer, shown, shown_array
 from . import dop853
 
 __all__ = ["RunOptions", "run_options", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT", "MAX_STEPS",
@@ -80,7 +80,7 @@ def _tolerance(name, value, floor=None):
     else:
         tolerances = number = finite_array(name, value)
         if tolerances.size == 0 or np.any(tolerances <= 0):
-            raise InputError(f"{name}: must be finite numbers > 0, got {tolerances}")
+            raise InputError(f"{name}: must be finite numbers > 0, got {shown_array(tolerances)}")
     if floor is not None and np.min(tolerances) < floor:
         raise InputError(f"{name}: must be >= {floor:.3g}, the tightest float64 can deliver (100 machine "
                          f"epsilons), got {np.min(tolerances):g}")
