@@ -26,7 +26,7 @@ def shown(value):
     """``value`` as an error message shows it: numpy scalars like the Python numbers they hold."""
     if isinstance(value, np.generic):
         value = value.item()
-    if isinstance(value, np.ndarray):
+    if isinstance(value, np.ndarray) and value.ndim:
         return shown_array(value)
     try:
         text = repr(value)
@@ -132,11 +132,13 @@ def one_of(name, value, choices):
         ``"{name}: unknown {value}; choose one of {choices}"``.
     """
     try:
-        known = value in choices
-    except TypeError:                      # an unhashable value is no key of a mapping
+        known = bool(value in choices)
+    except (TypeError, ValueError):        # an unhashable value is no key of a mapping; an array no choice
         known = False
     if not known:
         raise InputError(f"{name}: unknown {shown(value)}; choose one of {', '.join(map(str, choices))}")
+    if isinstance(value, np.ndarray):      # a 0-d array equal to a choice: the choice itself, hashable
+        return next(choice for choice in choices if choice == value)
     return value
 
 

@@ -112,6 +112,9 @@ def _check_method(formulation, method, switching, options):
             "formulation: expected a Formulation (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, "
             f"ClosedForm or Projected), got {formulation!r}"
         )
+    if not ((isinstance(method, str) and method in SOLVER_METHODS)
+            or (isinstance(method, type) and issubclass(method, OdeSolver) and method is not OdeSolver)):
+        raise InputError(f"method: unknown {shown(method)}; choose one of {', '.join(SOLVER_METHODS)}")
     formulation.check_method(method)
     if switching not in SWITCHING:
         raise InputError(f"switching: unknown {switching!r}; choose one of {', '.join(SWITCHING)}")
@@ -125,8 +128,6 @@ def _check_method(formulation, method, switching, options):
                 "that cannot cross det Phi_z = 0 unnoticed (ClosedForm, Orthogonal, Minimal); use a "
                 f"solve_ivp method with {type(formulation).__name__}"
             )
-    if not (method in SOLVER_METHODS or (isinstance(method, type) and issubclass(method, OdeSolver))):
-        raise InputError(f"method: unknown {method!r}; choose one of {', '.join(SOLVER_METHODS)}")
     reserved = set(_RESERVED) & set(options)
     if reserved:
         raise InputError(f"solver options: {sorted(reserved)} are managed by simulate()")
