@@ -99,11 +99,15 @@ def _check_times(t_start, t_end, rtol, atol, sticking_resolution, branch_limit):
     if not (is_real(branch_limit) and branch_limit > 0):
         raise InputError(f"branch_limit: must be a number > 0 (math.inf turns the guard off), got "
                          f"{shown(branch_limit)}")
+    return t_start, t_end, rtol, atol, sticking_resolution, _as_float(branch_limit)
+
+
+def _as_float(value):
+    """A number > 0 as a float: math.inf for an integer beyond float's range (10**400)."""
     try:
-        branch_limit = float(branch_limit)
-    except OverflowError:                  # an integer beyond float's range (10**400): no limit
-        branch_limit = math.inf
-    return t_start, t_end, rtol, atol, sticking_resolution, branch_limit
+        return float(value)
+    except OverflowError:
+        return math.inf
 
 
 def _check_method(formulation, method, switching, options):
@@ -161,11 +165,29 @@ def _check_output_times(t_eval, t_start, t_end):
     if t_eval is None:
         return None
     t_eval = finite_array("t_eval", t_eval)
+    if t_eval.ndim != 1:
+        raise InputError(f"t_eval: must be a list of times, got an array of shape {t_eval.shape}")
     if t_eval.size == 0:
         raise InputError("t_eval: holds no time; give at least one, or None for the step ends")
     if np.any(np.diff(t_eval) <= 0) or t_eval[0] < t_start or t_eval[-1] > t_end:
         raise InputError(f"t_eval: must increase strictly within [{t_start:g}, {t_end:g}]")
     return t_eval
+
+
+def _check_steps(solver_options):
+    """The step options: ``max_step`` (> 0, inf for none) and ``first_step`` (> 0) as floats [s], ``nsteps``."""
+    checked = dict(solver_options)
+    if "max_step" in checked:
+        value = checked["max_step"]
+        if not (is_real(value) and value > 0):
+            raise InputError(f"max_step: must be a number > 0 s (math.inf: no bound), got {shown(value)}")
+        checked["max_step"] = _as_float(value)
+    if "first_step" in checked:
+        checked["first_step"] = finite_number("first_step", checked["first_step"], minimum=0.0, strict=True,
+                                              unit="s")
+    if "nsteps" in checked:
+        checked["nsteps"] = positive_integer("nsteps", checked["nsteps"])
+    return checked
 
 
 def run_options(system, initial_state, formulation, *, t_start, t_end, method, rtol, atol, t_eval, multipliers,
@@ -175,6 +197,7 @@ def run_options(system, initial_state, formulation, *, t_start, t_end, method, r
     t_start, t_end, rtol, atol, sticking_resolution, branch_limit = _check_times(
         t_start, t_end, rtol, atol, sticking_resolution, branch_limit)
     _check_method(formulation, method, switching, solver_options)
+    solver_options = _check_steps(solver_options)
     max_nfev = None if max_nfev is None else positive_integer("max_nfev", max_nfev)
     max_steps = positive_integer("max_steps", max_steps)
     _check_initial_state(system, initial_state)

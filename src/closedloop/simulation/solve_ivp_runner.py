@@ -142,11 +142,14 @@ def segment(run, t0, s0, sd0, mode):
 def _solve(run, rhs, t0, y0, events, reached, overflow):
     """solve_ivp over one segment; the budget and "could not locate a switch" become IntegrationErrors."""
     options, formulation = run.options, run.formulation
+    solver_options = dict(options.solver_options)
+    if "first_step" in solver_options:              # a segment may be shorter than the first step asked for
+        solver_options["first_step"] = min(solver_options["first_step"], run.t_end - t0)
     try:
         return solve_ivp(_guarded(rhs, run, reached, overflow), (t0, run.t_end), y0,
                         method=counting_solver(run, formulation.integrator(run.system, options.method)),
                         rtol=options.rtol, atol=options.atol, t_eval=run.outputs.due(t0), events=events or None,
-                        **options.solver_options)
+                        **solver_options)
     except _BudgetExceeded:
         raise run.budget_error(reached[0]) from None
     except ValueError as error:
