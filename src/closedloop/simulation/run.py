@@ -22,8 +22,9 @@ from .result import Outputs, SwitchEvent
 
 __all__ = ["Run", "SegmentEnd", "MAX_RELEASE_SAMPLES"]
 
-#: Most checks of the holding force while one state is stuck (see Run._find_release).
-MAX_RELEASE_SAMPLES = 10_000_000
+#: Most checks of the holding force while one state is stuck (see Run._find_release): a check of the
+#: slider-crank costs some 37 us, so 1e6 of them take about 40 s (1e7 took over six minutes).
+MAX_RELEASE_SAMPLES = 1_000_000
 
 
 class SegmentEnd(NamedTuple):
