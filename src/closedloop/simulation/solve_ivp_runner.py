@@ -153,6 +153,13 @@ def _solve(run, rhs, t0, y0, events, reached, overflow):
     except _BudgetExceeded:
         raise run.budget_error(reached[0]) from None
     except ValueError as error:
+        if "must not contain infs or NaNs" in str(error):     # scipy's LU of Radau's or BDF's Newton matrix
+            steps = f"last step {_last_step(run):.3g} s" if run.step_sizes else "before its first step"
+            raise IntegrationError(
+                f"{options.method_name} failed at t = {_time_reached(run, t0):.6g} s ({steps}) in a segment of "
+                f"{run.t_end - t0:.3g} s: its Newton iteration met a matrix with non-finite entries (1/step beyond "
+                f"the range of floating-point numbers, or a Jacobian that overflowed); {run.advice()}"
+            ) from None
         if "different signs" not in str(error):
             raise
         raise IntegrationError(
