@@ -106,6 +106,13 @@ def _guarded(rhs, run, reached, overflow):
             # solver a non-finite slope, so that it rejects the step, and remember it.
             overflow.append((t, str(error)))
             return np.full(y.size, np.nan)
+        except Exception:
+            # The later stages of a step whose stage overflowed are evaluated at NaN: whatever
+            # the formulation raises there (numpy's LinAlgError, a ConvergenceError) is that
+            # overflow, and the step is rejected as above.  At a finite state it is the error.
+            if np.isfinite(y).all():
+                raise
+            return np.full(y.size, np.nan)
 
     return guarded_rhs
 
