@@ -110,6 +110,26 @@ def _as_float(value):
         return math.inf
 
 
+def _tolerance_entries(name, tolerance, system, initial_state, formulation, method, work):
+    """A tolerance array as solve_ivp takes it: one entry per entry of the integrator's state.
+
+    An array of one entry is that number; Radau (rtol) and the compiled DOP853 take numbers only.
+    """
+    if not isinstance(tolerance, np.ndarray):
+        return tolerance
+    if tolerance.size == 1:
+        return float(tolerance.reshape(-1)[0])
+    if method == dop853.METHOD or (name == "rtol" and method == "Radau"):
+        raise InputError(f"{name}: {method} takes one number, got {tolerance.size}")
+    names = formulation.state_names(system) + (["W"] if work else [])
+    size = formulation.pack(system, initial_state.s, initial_state.sd).size + (1 if work else 0)
+    if tolerance.shape != (size,):
+        raise InputError(f"{name}: need one value or {size}, one per entry of the {formulation.name} state "
+                         f"({', '.join(names[:size])}), got "
+                         f"{tolerance.size if tolerance.ndim == 1 else f'an array of shape {tolerance.shape}'}")
+    return tolerance
+
+
 def _check_method(formulation, method, switching, options):
     if not isinstance(formulation, Formulation):
         raise InputError(
@@ -201,6 +221,8 @@ def run_options(system, initial_state, formulation, *, t_start, t_end, method, r
     max_nfev = None if max_nfev is None else positive_integer("max_nfev", max_nfev)
     max_steps = positive_integer("max_steps", max_steps)
     _check_initial_state(system, initial_state)
+    rtol, atol = (_tolerance_entries(name, value, system, initial_state, formulation, method, work)
+                  for name, value in (("rtol", rtol), ("atol", atol)))
     t_eval = _check_output_times(t_eval, t_start, t_end)
     if stop_when is not None and not callable(stop_when):
         raise InputError("stop_when: expected a callable stop_when(t, s, sd) -> float")
