@@ -15,6 +15,7 @@ and is cached; every numeric call afterwards is plain numpy.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Callable, NamedTuple
@@ -290,7 +291,11 @@ class System:
     """
 
     def __init__(self, model: MultibodyModel, parameter_values=None, force=None):
-        parameter_values = dict(parameter_values or {})
+        if parameter_values is None:
+            parameter_values = {}
+        if not isinstance(parameter_values, Mapping):
+            raise InputError(f"parameter_values: expected a mapping of parameter names to numbers, got "
+                             f"{type(parameter_values).__name__}")
         by_name = {str(k): v for k, v in parameter_values.items()}
         missing = [str(p) for p in model.parameters if str(p) not in by_name]
         if missing:

@@ -28,7 +28,7 @@ from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
 from .model import MultibodyModel, System
 from .simulation import SimulationResult
-from .validation import finite_number, instance_of, one_of
+from .validation import finite_number, instance_of, one_of, shown
 
 __all__ = [
     "SliderCrankParameters",
@@ -98,25 +98,24 @@ class SliderCrankParameters:
         units = {"l1": "m", "l2": "m", "a1": "m", "a2": "m", "m1": "kg", "m2": "kg", "m3": "kg",
                  "I1": "kg m^2", "I2": "kg m^2", "g": "m/s^2"}
         if not isinstance(self.full_rotation, bool):
-            raise InputError(f"full_rotation: must be True or False, got {self.full_rotation!r}")
-        for item in fields(self):
-            if item.name == "full_rotation":
-                continue
-            finite_number(item.name, getattr(self, item.name), minimum=0.0,
-                          strict=item.name not in ("a1", "a2", "g"), unit=units[item.name])
-        if self.full_rotation and self.l1 >= self.l2:
+            raise InputError(f"full_rotation: must be True or False, got {shown(self.full_rotation)}")
+        checked = {item.name: finite_number(item.name, getattr(self, item.name), minimum=0.0,
+                                            strict=item.name not in ("a1", "a2", "g"), unit=units[item.name])
+                   for item in fields(self) if item.name != "full_rotation"}
+        l1, l2, a2 = checked["l1"], checked["l2"], checked["a2"]      # floats: a Fraction has no :g before 3.12
+        if self.full_rotation and l1 >= l2:
             raise InputError(
-                f"l1: must be < l2 = {self.l2:g} m, got {self.l1:g} m: with l1 >= l2 the crank cannot "
+                f"l1: must be < l2 = {l2:g} m, got {l1:g} m: with l1 >= l2 the crank cannot "
                 "turn a full revolution (the rod cannot reach the slider's axis); pass "
                 "full_rotation=False to study a rocking crank with l2 < l1"
             )
-        if not self.full_rotation and self.l2 >= self.l1:
+        if not self.full_rotation and l2 >= l1:
             raise InputError(
-                f"l2: must be < l1 = {self.l1:g} m with full_rotation=False, got {self.l2:g} m (at l2 = l1 "
+                f"l2: must be < l1 = {l1:g} m with full_rotation=False, got {l2:g} m (at l2 = l1 "
                 "the two assembly branches meet at phi = pi/2, where Phi_s loses rank: a bifurcation)"
             )
-        if self.a2 > self.l2:
-            raise InputError(f"a2: must lie on the rod, 0 <= a2 <= l2 = {self.l2:g} m, got {self.a2:g} m")
+        if a2 > l2:
+            raise InputError(f"a2: must lie on the rod, 0 <= a2 <= l2 = {l2:g} m, got {a2:g} m")
 
     def as_dict(self):
         """Values keyed by the model's parameter names (without ``full_rotation``)."""

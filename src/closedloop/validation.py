@@ -10,21 +10,35 @@ number > 0 s, got -0.1``.  Python and numpy numbers are accepted alike
 
 from __future__ import annotations
 
+import math
 import numbers
+import sys
 
 import numpy as np
 
 from .errors import InputError
 
 __all__ = ["finite_number", "positive_number", "integer", "positive_integer", "one_of", "finite_array", "instance_of",
-           "is_real", "shown"]
+           "is_real", "shown", "shown_array"]
 
 
 def shown(value):
     """``value`` as an error message shows it: numpy scalars like the Python numbers they hold."""
     if isinstance(value, np.generic):
         value = value.item()
-    return repr(value)
+    if isinstance(value, np.ndarray) and value.ndim:
+        return shown_array(value)
+    try:
+        text = repr(value)
+    except ValueError:                     # an int (or Fraction) beyond Python's limit of digits for str
+        return f"{type(value).__name__} of more than {sys.get_int_max_str_digits()} digits"
+    return " ".join(line.strip() for line in text.splitlines()) if "\n" in text else text
+
+
+def shown_array(values):
+    """An array as an error message shows it: on one line, at most a dozen entries (``[1. nan ... 3.]``)."""
+    text = np.array2string(np.asarray(values), max_line_width=sys.maxsize, threshold=12, edgeitems=3)
+    return text.replace("\n", "")                # the rows of a 2-d array: "[[1. 2.] [3. 4.]]"
 
 
 def is_real(value):
@@ -69,7 +83,10 @@ def finite_number(name, value, *, minimum=None, maximum=None, strict=False, unit
         ``"{name}: must be a finite number{range}, got {value}"``.
     """
     if is_real(value):
-        number = float(value)
+        try:
+            number = float(value)
+        except OverflowError:              # an integer or Fraction beyond float's range (10**400)
+            number = math.inf
         inside = np.isfinite(number)
         if inside and minimum is not None:
             inside = number > minimum if strict and maximum is None else number >= minimum
@@ -115,11 +132,13 @@ def one_of(name, value, choices):
         ``"{name}: unknown {value}; choose one of {choices}"``.
     """
     try:
-        known = value in choices
-    except TypeError:                      # an unhashable value is no key of a mapping
+        known = bool(value in choices)
+    except (TypeError, ValueError):        # an unhashable value is no key of a mapping; an array no choice
         known = False
     if not known:
         raise InputError(f"{name}: unknown {shown(value)}; choose one of {', '.join(map(str, choices))}")
+    if isinstance(value, np.ndarray):      # a 0-d array equal to a choice: the choice itself, hashable
+        return next(choice for choice in choices if choice == value)
     return value
 
 
@@ -153,5 +172,5 @@ def finite_array(name, value, *, size=None):
     if size is not None and array.shape != (size,):
         raise InputError(f"{name}: need {size} values, got {array.size}")
     if not np.all(np.isfinite(array)):
-        raise InputError(f"{name}: must be finite, got {array}")
+        raise InputError(f"{name}: must be finite, got {shown_array(array)}")
     return array

@@ -127,8 +127,8 @@ def _projecting_solver(base, system):
     n = system.n
 
     def project(t, y):
-        s, sd = project_state(system, y[:n], y[n:], t)
-        return np.concatenate((s, sd))
+        s, sd = project_state(system, y[:n], y[n:2 * n], t)
+        return np.concatenate((s, sd, y[2 * n:]))          # y[2n:]: the work W, with simulate(work=True)
 
     class ProjectingSolver(base):
         __doc__ = f"{base.__name__}, with the state projected onto f = 0, f' = 0 after every step."

@@ -15,11 +15,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
 from ..linalg import NULL_SPACE_BASES, null_space_basis, orthogonal_complement, solve_augmented
 from ..validation import finite_number, one_of, positive_number
 from .base import Formulation
 
-__all__ = ["Augmented", "Baumgarte", "Orthogonal", "NullSpace", "baumgarte_from_step", "baumgarte_p2"]
+__all__ = ["Augmented", "Baumgarte", "Orthogonal", "NullSpace", "baumgarte_from_step", "baumgarte_p2", "GAIN_LIMIT"]
+
+
+#: The largest Baumgarte gain alpha or beta [1/s].  The constraint error of (15) then decays within
+#: 1/GAIN_LIMIT = 1 us, and every method takes steps about that short: RK45 needs 85 000 steps for
+#: 0.5 s at 1e5, Radau more than 1e5 steps for 0.03 s at 1e6, so one second at this limit already
+#: needs MAX_STEPS = 1e6 steps.  Far above it the terms of (17) overflow (beta^2 = inf at 1.4e154:
+#: NaN accelerations at the start, on which solve_ivp's step selection never ends).
+GAIN_LIMIT = 1e6
 
 
 def baumgarte_from_step(step):
@@ -34,7 +43,10 @@ def baumgarte_from_step(step):
     -------
     Baumgarte
     """
-    positive_number("step", step, unit="s")
+    step = positive_number("step", step, unit="s")
+    if math.sqrt(2.0) / step > GAIN_LIMIT:
+        raise InputError(f"step: must be >= {math.sqrt(2.0) / GAIN_LIMIT:.3g} s, so that beta = sqrt(2)/step stays "
+                         f"<= {GAIN_LIMIT:g} 1/s (GAIN_LIMIT), got {step:g}")
     return Baumgarte(alpha=1.0 / step, beta=math.sqrt(2.0) / step)
 
 
@@ -63,8 +75,11 @@ class _Stabilised(Formulation):
     beta: float = 5.0
 
     def __post_init__(self):
-        finite_number("alpha", self.alpha, minimum=0.0)
-        finite_number("beta", self.beta, minimum=0.0)
+        for name in ("alpha", "beta"):
+            value = finite_number(name, getattr(self, name), minimum=0.0)
+            if value > GAIN_LIMIT:
+                raise InputError(f"{name}: must be <= {GAIN_LIMIT:g} 1/s, got {value:g} (the paper's range is 1 to "
+                                 "20; above the limit a run needs more than 1e6 steps per second)")
 
     @property
     def gains(self):

@@ -198,8 +198,7 @@ def _counting(rhs, max_nfev, failure):
             try:
                 return rhs(t, y)
             except Exception as error:
-                error.t = t                 # where it failed, for the caller's checks
-                failure.append(error)
+                failure.append(_failed_at(t, error))
                 return [math.nan] * y.size
     else:
         def counted(t, y):
@@ -210,11 +209,23 @@ def _counting(rhs, max_nfev, failure):
                     raise BudgetExceeded(t)
                 return rhs(t, y)
             except Exception as error:
-                error.t = t
-                failure.append(error)
+                failure.append(_failed_at(t, error))
                 return [math.nan] * y.size
 
     return counted, lambda: count
+
+
+def _failed_at(t, error):
+    """The error of a right-hand side that failed at time ``t`` (its attribute ``t``, for the caller's checks);
+    an arithmetic overflow becomes an IntegrationError that says so."""
+    if isinstance(error, (OverflowError, FloatingPointError)):
+        detail = error.args[-1] if error.args else type(error).__name__
+        error = IntegrationError(
+            f"{COMPILED_METHOD} failed at t = {t:.6g} s: the right-hand side overflowed ({detail}), the "
+            "accelerations are beyond the range of floating-point numbers. Try an implicit method (Radau, BDF), "
+            "tighter tolerances, or smaller Baumgarte gains")
+    error.t = t
+    return error
 
 
 class _StepWatch:

@@ -14,7 +14,7 @@ from ..formulations import Formulation
 from ..kinematics import InitialState
 from ..linalg import null_space_basis
 from ..methods import IMPLICIT_METHODS, SOLVER_METHODS
-from ..validation import finite_array, finite_number, is_real, positive_integer, shown
+from ..validation import finite_array, finite_number, is_real, positive_integer, shown, shown_array
 from . import dop853
 
 __all__ = ["RunOptions", "run_options", "methods_taking", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT",
@@ -81,7 +81,7 @@ def _tolerance(name, value, floor=None):
     else:
         tolerances = number = finite_array(name, value)
         if tolerances.size == 0 or np.any(tolerances <= 0):
-            raise InputError(f"{name}: must be finite numbers > 0, got {tolerances}")
+            raise InputError(f"{name}: must be finite numbers > 0, got {shown_array(tolerances)}")
     if floor is not None and np.min(tolerances) < floor:
         raise InputError(f"{name}: must be >= {floor:.3g}, the tightest float64 can deliver (100 machine "
                          f"epsilons), got {np.min(tolerances):g}")
@@ -100,7 +100,35 @@ def _check_times(t_start, t_end, rtol, atol, sticking_resolution, branch_limit):
     if not (is_real(branch_limit) and branch_limit > 0):
         raise InputError(f"branch_limit: must be a number > 0 (math.inf turns the guard off), got "
                          f"{shown(branch_limit)}")
-    return t_start, t_end, rtol, atol, sticking_resolution, float(branch_limit)
+    return t_start, t_end, rtol, atol, sticking_resolution, _as_float(branch_limit)
+
+
+def _as_float(value):
+    """A number > 0 as a float: math.inf for an integer beyond float's range (10**400)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
+
+
+def _tolerance_entries(name, tolerance, system, initial_state, formulation, method, work):
+    """A tolerance array as solve_ivp takes it: one entry per entry of the integrator's state.
+
+    An array of one entry is that number; Radau (rtol) and the compiled DOP853 take numbers only.
+    """
+    if not isinstance(tolerance, np.ndarray):
+        return tolerance
+    if tolerance.size == 1:
+        return float(tolerance.reshape(-1)[0])
+    if method == dop853.METHOD or (name == "rtol" and method == "Radau"):
+        raise InputError(f"{name}: {method} takes one number, got {tolerance.size}")
+    names = formulation.state_names(system) + (["W"] if work else [])
+    size = formulation.pack(system, initial_state.s, initial_state.sd).size + (1 if work else 0)
+    if tolerance.shape != (size,):
+        raise InputError(f"{name}: need one value or {size}, one per entry of the {formulation.name} state "
+                         f"({', '.join(names[:size])}), got "
+                         f"{tolerance.size if tolerance.ndim == 1 else f'an array of shape {tolerance.shape}'}")
+    return tolerance
 
 
 def methods_taking(formulation, switching="events"):
@@ -122,6 +150,10 @@ def _check_method(formulation, method, switching, options):
             "formulation: expected a Formulation (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, "
             f"ClosedForm or Projected), got {formulation!r}"
         )
+    if not ((isinstance(method, str) and method in SOLVER_METHODS)
+            or (isinstance(method, type) and issubclass(method, OdeSolver) and method is not OdeSolver)):
+        choices = methods_taking(formulation, switching if switching in SWITCHING else "events")
+        raise InputError(f"method: unknown {shown(method)}; choose one of {', '.join(choices)}")
     formulation.check_method(method)
     if switching not in SWITCHING:
         raise InputError(f"switching: unknown {switching!r}; choose one of {', '.join(SWITCHING)}")
@@ -135,9 +167,6 @@ def _check_method(formulation, method, switching, options):
                 "that cannot cross det Phi_z = 0 unnoticed (ClosedForm, Orthogonal, Minimal); use a "
                 f"solve_ivp method with {type(formulation).__name__}"
             )
-    if not (method in SOLVER_METHODS or (isinstance(method, type) and issubclass(method, OdeSolver))):
-        raise InputError(f"method: unknown {method!r}; choose one of "
-                         f"{', '.join(methods_taking(formulation, switching))}")
     reserved = set(_RESERVED) & set(options)
     if reserved:
         raise InputError(f"solver options: {sorted(reserved)} are managed by simulate()")
@@ -203,11 +232,29 @@ def _check_output_times(t_eval, t_start, t_end):
     if t_eval is None:
         return None
     t_eval = finite_array("t_eval", t_eval)
+    if t_eval.ndim != 1:
+        raise InputError(f"t_eval: must be a list of times, got an array of shape {t_eval.shape}")
     if t_eval.size == 0:
         raise InputError("t_eval: holds no time; give at least one, or None for the step ends")
     if np.any(np.diff(t_eval) <= 0) or t_eval[0] < t_start or t_eval[-1] > t_end:
         raise InputError(f"t_eval: must increase strictly within [{t_start:g}, {t_end:g}]")
     return t_eval
+
+
+def _check_steps(solver_options):
+    """The step options: ``max_step`` (> 0, inf for none) and ``first_step`` (> 0) as floats [s], ``nsteps``."""
+    checked = dict(solver_options)
+    if "max_step" in checked:
+        value = checked["max_step"]
+        if not (is_real(value) and value > 0):
+            raise InputError(f"max_step: must be a number > 0 s (math.inf: no bound), got {shown(value)}")
+        checked["max_step"] = _as_float(value)
+    if "first_step" in checked:
+        checked["first_step"] = finite_number("first_step", checked["first_step"], minimum=0.0, strict=True,
+                                              unit="s")
+    if "nsteps" in checked:
+        checked["nsteps"] = positive_integer("nsteps", checked["nsteps"])
+    return checked
 
 
 def run_options(system, initial_state, formulation, *, t_start, t_end, method, rtol, atol, t_eval, multipliers,
@@ -217,9 +264,12 @@ def run_options(system, initial_state, formulation, *, t_start, t_end, method, r
     t_start, t_end, rtol, atol, sticking_resolution, branch_limit = _check_times(
         t_start, t_end, rtol, atol, sticking_resolution, branch_limit)
     _check_method(formulation, method, switching, solver_options)
+    solver_options = _check_steps(solver_options)
     max_nfev = None if max_nfev is None else positive_integer("max_nfev", max_nfev)
     max_steps = positive_integer("max_steps", max_steps)
     _check_initial_state(system, initial_state)
+    rtol, atol = (_tolerance_entries(name, value, system, initial_state, formulation, method, work)
+                  for name, value in (("rtol", rtol), ("atol", atol)))
     t_eval = _check_output_times(t_eval, t_start, t_end)
     if stop_when is not None and not callable(stop_when):
         raise InputError("stop_when: expected a callable stop_when(t, s, sd) -> float")

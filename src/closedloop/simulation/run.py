@@ -22,8 +22,9 @@ from .result import Outputs, SwitchEvent
 
 __all__ = ["Run", "SegmentEnd", "MAX_RELEASE_SAMPLES"]
 
-#: Most checks of the holding force while one state is stuck (see Run._find_release).
-MAX_RELEASE_SAMPLES = 10_000_000
+#: Most checks of the holding force while one state is stuck (see Run._find_release): a check of the
+#: slider-crank costs some 37 us, so 1e6 of them take about 40 s (1e7 took over six minutes).
+MAX_RELEASE_SAMPLES = 1_000_000
 
 
 class SegmentEnd(NamedTuple):
@@ -262,14 +263,16 @@ class Run:
         resolution = self.options.sticking_resolution
         period = rule.forcing_period(self.system)
         horizon = self.t_end if period is None else min(self.t_end, t0 + period + resolution)
-        samples = math.ceil((horizon - t0) / resolution)
+        samples = (horizon - t0) / resolution          # inf for resolution = 5e-324: compared before ceil
         if samples > MAX_RELEASE_SAMPLES:
+            reason = (" (the system's forcing is not periodic, so no check can be skipped)" if period is None
+                      else "")
             raise IntegrationError(
                 f"the state sticks on a switch at t = {t0:.6g} s, and its release would need {samples:.3g} checks "
-                f"of the holding force up to t_end = {self.t_end:g} s (more than {MAX_RELEASE_SAMPLES:g}): the "
-                "system's forcing is not periodic, so no check can be skipped; give a larger sticking_resolution "
-                "or a shorter t_end"
+                f"of the holding force up to t = {horizon:g} s, more than {MAX_RELEASE_SAMPLES:g}{reason}; give a "
+                "larger sticking_resolution or a shorter t_end"
             )
+        samples = math.ceil(samples)
         previous, previous_margin = t0, margin(t0)
         for k in range(1, samples + 1):
             t = min(t0 + k * resolution, self.t_end)

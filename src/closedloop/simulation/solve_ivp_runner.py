@@ -106,6 +106,13 @@ def _guarded(rhs, run, reached, overflow):
             # solver a non-finite slope, so that it rejects the step, and remember it.
             overflow.append((t, str(error)))
             return np.full(y.size, np.nan)
+        except Exception:
+            # The later stages of a step whose stage overflowed are evaluated at NaN: whatever
+            # the formulation raises there (numpy's LinAlgError, a ConvergenceError) is that
+            # overflow, and the step is rejected as above.  At a finite state it is the error.
+            if np.isfinite(y).all():
+                raise
+            return np.full(y.size, np.nan)
 
     return guarded_rhs
 
@@ -142,14 +149,24 @@ def segment(run, t0, s0, sd0, mode):
 def _solve(run, rhs, t0, y0, events, reached, overflow):
     """solve_ivp over one segment; the budget and "could not locate a switch" become IntegrationErrors."""
     options, formulation = run.options, run.formulation
+    solver_options = dict(options.solver_options)
+    if "first_step" in solver_options:              # a segment may be shorter than the first step asked for
+        solver_options["first_step"] = min(solver_options["first_step"], run.t_end - t0)
     try:
         return solve_ivp(_guarded(rhs, run, reached, overflow), (t0, run.t_end), y0,
                         method=counting_solver(run, formulation.integrator(run.system, options.method)),
                         rtol=options.rtol, atol=options.atol, t_eval=run.outputs.due(t0), events=events or None,
-                        **options.solver_options)
+                        **solver_options)
     except _BudgetExceeded:
         raise run.budget_error(reached[0]) from None
     except ValueError as error:
+        if "must not contain infs or NaNs" in str(error):     # scipy's LU of Radau's or BDF's Newton matrix
+            steps = f"last step {_last_step(run):.3g} s" if run.step_sizes else "before its first step"
+            raise IntegrationError(
+                f"{options.method_name} failed at t = {_time_reached(run, t0):.6g} s ({steps}) in a segment of "
+                f"{run.t_end - t0:.3g} s: its Newton iteration met a matrix with non-finite entries (1/step beyond "
+                f"the range of floating-point numbers, or a Jacobian that overflowed); {run.advice()}"
+            ) from None
         if "different signs" not in str(error):
             raise
         raise IntegrationError(
