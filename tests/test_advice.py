@@ -129,7 +129,7 @@ def test_max_segments(slider_crank, case2):
 # -- integrator failures ----------------------------------------------------------------------------
 
 def test_step_size_underflow_at_a_singular_force():
-    """The pendulum driven by |1 - t|^-1.5 (tests/test_stiffness.py): no method passes t = 1 s."""
+    """The pendulum driven by |1 - t|^-1.5 (tests/test_integrators.py): no method passes t = 1 s."""
     system = System(pendulum_model(), {"m": 2.0, "l": 1.5, "g": 9.81},
                     force=lambda t, s, sd: np.array([abs(1.0 - t) ** -1.5, 0.0, 0.0]))
     state = consistent_initial_state(system, [0.3], [0.0], [0.4, -1.4])
