@@ -71,10 +71,13 @@ from ..slider_crank import initial_state as slider_crank_initial_state
 from ..validation import finite_array, positive_number
 
 __all__ = ["BasinMap", "basin_map", "integrate_outcomes", "reference_outcomes", "boundary_cells",
-           "compare_outcomes", "Agreement", "DEFAULT_STEP", "grid_values"]
+           "compare_outcomes", "Agreement", "DEFAULT_STEP", "MAX_STEPS", "grid_values"]
 
 #: Step of the fixed-step scheme [s]; its choice is measured in the book's basin chapter.
 DEFAULT_STEP = 0.02
+#: Most steps of one map (t_end / step): a step of the batch costs about 1 ms, so 1e5 steps take some
+#: 100 s (a 20 s map down to a step of 2e-4 s); the book's maps take 1000.
+MAX_STEPS = 100_000
 
 
 def grid_values(start, stop, count):
@@ -273,10 +276,13 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
 
 
 def _check_time(t_end, step):
-    positive_number("t_end", t_end, unit="s")
-    positive_number("step", step, unit="s")
+    t_end = positive_number("t_end", t_end, unit="s")
+    step = positive_number("step", step, unit="s")
     if step > t_end:
         raise InputError(f"step: must be <= t_end = {t_end:g} s, got {step:g} s")
+    if t_end / step > MAX_STEPS:
+        raise InputError(f"step: t_end/step would be {t_end / step:.3g} steps, more than {MAX_STEPS:g} (about 1 ms "
+                         f"each); give a step >= {t_end / MAX_STEPS:.3g} s or a shorter t_end, got {step:g} s")
 
 
 def _start_rule(system, initial_state):
