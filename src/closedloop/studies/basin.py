@@ -68,7 +68,7 @@ from ..simulation import switching as rule
 from ..slider_crank import (DEFAULT_READING, MOTIONS, SliderCrankSystem, get_reading, motion_codes,
                             slider_crank_system)
 from ..slider_crank import initial_state as slider_crank_initial_state
-from ..validation import finite_array, positive_number
+from ..validation import finite_array, finite_number, positive_integer, positive_number
 
 __all__ = ["BasinMap", "basin_map", "integrate_outcomes", "reference_outcomes", "boundary_cells",
            "compare_outcomes", "Agreement", "DEFAULT_STEP", "MAX_STEPS", "grid_values"]
@@ -80,14 +80,18 @@ DEFAULT_STEP = 0.02
 MAX_STEPS = 100_000
 
 
-def grid_values(start, stop, count):
+def grid_values(start, stop, count, name="grid"):
     """``count`` evenly spaced values from ``start`` to ``stop``, ``stop`` left out.
 
     ``start + k (stop - start) / count`` for k = 0 .. count - 1, so that phi0
     in [0, 2 pi) does not count the same angle twice, and a grid of 4m cells
     on [0, 2 pi) holds pi/2 and pi exactly.  A map draws each sample as the
-    cell centred on it.
+    cell centred on it.  ``name`` is the grid's name in an error message.
     """
+    start, stop = finite_number(f"{name} start", start), finite_number(f"{name} stop", stop)
+    count = positive_integer(f"{name} count", count)
+    if not math.isfinite(stop - start):                 # 1e308 - (-1e308): no spacing to take
+        raise InputError(f"{name}: stop - start must be a finite number, got {stop:g} - {start:g}")
     return start + (stop - start) * np.arange(count) / count
 
 
