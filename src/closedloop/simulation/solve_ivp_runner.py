@@ -24,10 +24,14 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau, solve_ivp
 
 from ..errors import ClosedLoopError, IntegrationError, SingularConfigurationError
 
-__all__ = ["segment", "counting_solver", "SOLVER_CLASSES"]
+__all__ = ["segment", "counting_solver", "SOLVER_CLASSES", "STANDING_STEPS"]
 
 #: solve_ivp's methods by name, as OdeSolver classes.
 SOLVER_CLASSES = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+
+
+#: Successful steps in a row that do not advance t, after which a solver counts as stuck.
+STANDING_STEPS = 1000
 
 
 class _BudgetExceeded(Exception):
@@ -44,9 +48,17 @@ def counting_solver(run, method):
     watch = run.path.active
 
     class Counted(base):
+        standing = 0                                # successful steps in a row that left t where it was
+
         def _step_impl(self):
             t_before = self.t
             success, message = super()._step_impl()
+            if success and self.t == t_before:
+                self.standing += 1                  # LSODA over a run of 1e-300 s: for ever, t = 0
+                if self.standing >= STANDING_STEPS:
+                    return False, f"{self.standing} steps in a row left t at {self.t:.6g} s"
+            elif success:
+                self.standing = 0
             if success and self.t != t_before:
                 run.step_sizes.append(abs(self.t - t_before))
                 run.t_reached = self.t
