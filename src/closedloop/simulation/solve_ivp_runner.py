@@ -179,6 +179,12 @@ def _solve(run, rhs, t0, y0, events, reached, overflow):
                 f"{run.t_end - t0:.3g} s: its Newton iteration met a matrix with non-finite entries (1/step beyond "
                 f"the range of floating-point numbers, or a Jacobian that overflowed); {run.advice()}"
             ) from None
+        if "is NaN; solver cannot continue" in str(error):   # brentq on the interpolant of a runaway step
+            raise IntegrationError(
+                f"{options.method_name} could not locate a switch or det Phi_z = 0 in the step after t = "
+                f"{_time_reached(run, t0):.6g} s (step {_last_step(run):.3g} s): the step's interpolant is not "
+                f"finite, the motion ran away; {run.advice()}"
+            ) from None
         if "different signs" not in str(error):
             raise
         raise IntegrationError(
