@@ -167,6 +167,8 @@ def finite_array(name, value, *, size=None):
         raise InputError(f"{name}: must be finite numbers, got {shown(value)}")
     try:
         array = np.atleast_1d(np.asarray(value, dtype=float))
+    except OverflowError:                  # an integer beyond float's range (2**1024), alone or in a list
+        raise InputError(f"{name}: must be finite, got {shown(value)}") from None
     except (TypeError, ValueError):
         raise InputError(f"{name}: must be finite numbers, got {shown(value)}") from None
     if size is not None and array.shape != (size,):

@@ -120,19 +120,28 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
         branch_limit=branch_limit, solver_options=options)
     start = time.process_time()
     run = Run(system, formulation, run_settings)
+    # A motion that runs away (loose tolerances, a fast start) reaches numbers beyond float's range:
+    # numpy's inf and NaN then end the run with the errors below, not with RuntimeWarnings on the way,
+    # and Python's OverflowError (the generated code, at a switch) is an IntegrationError too.
+    message = None
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            if switching == "naive":
+                message = integrate_naive(run, t_start, initial_state.s, initial_state.sd)
+            else:
+                runner = dop853_runner if run_settings.compiled else solve_ivp_runner
+                run.integrate(runner.segment, t_start, initial_state.s, initial_state.sd)
+    except (OverflowError, FloatingPointError) as error:
+        raise run.overflow_error(error) from None
+    except ClosedLoopError:
+        run.path.flush()                        # a change point passed before is the real cause
+        raise
     if switching == "naive":
-        message = integrate_naive(run, t_start, initial_state.s, initial_state.sd)
         if message is not None:
             error = IntegrationError(message)
             error.result = _result(run, start, with_multipliers=False)
             raise error
     else:
-        runner = dop853_runner if run_settings.compiled else solve_ivp_runner
-        try:
-            run.integrate(runner.segment, t_start, initial_state.s, initial_state.sd)
-        except ClosedLoopError:
-            run.path.flush()                    # a change point passed before is the real cause
-            raise
         run.path.flush()
     return _result(run, start, with_multipliers=run_settings.multipliers)
 

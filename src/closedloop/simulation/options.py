@@ -16,6 +16,7 @@ from ..linalg import null_space_basis
 from ..methods import IMPLICIT_METHODS, SOLVER_METHODS
 from ..validation import finite_array, finite_number, is_real, positive_integer, shown, shown_array
 from . import dop853
+from .switching import MIN_PROGRESS, no_progress
 
 __all__ = ["RunOptions", "run_options", "methods_taking", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT",
            "MAX_STEPS", "INITIAL_TOLERANCE", "IMPLICIT_METHODS"]
@@ -94,6 +95,10 @@ def _check_times(t_start, t_end, rtol, atol, sticking_resolution, branch_limit):
     t_end = finite_number("t_end", t_end, unit="s")
     if not t_end > t_start:
         raise InputError(f"t_end: must be > t_start = {t_start:g} s, got {t_end:g}")
+    if no_progress(t_end, t_start):
+        raise InputError(f"t_end: the run must last at least {MIN_PROGRESS * max(1.0, abs(t_start)):g} s (a shorter "
+                         f"one is a stall at a switch, see switching.MIN_PROGRESS), got t_end - t_start = "
+                         f"{t_end - t_start:g} s")
     rtol, atol = _tolerance("rtol", rtol, RTOL_FLOOR), _tolerance("atol", atol)
     sticking_resolution = finite_number("sticking_resolution", sticking_resolution, minimum=0.0, strict=True,
                                         unit="s")

@@ -122,6 +122,14 @@ class Run:
             f"({', '.join(which)} = {y_out[names.index(which[0]), k]}); {self.advice()}"
         )
 
+    def overflow_error(self, error):
+        """The IntegrationError for an arithmetic overflow (``error``) outside the integrator's steps."""
+        t = 0.0 if self.t_reached is None else self.t_reached
+        detail = error.args[-1] if error.args else type(error).__name__
+        return IntegrationError(
+            f"{self.options.method_name} failed after t = {t:.6g} s: an arithmetic overflow ({detail}), the "
+            f"motion's speeds or accelerations are beyond the range of floating-point numbers; {self.advice()}")
+
     def advice(self):
         """What to try instead, for an integration that failed."""
         tries = []

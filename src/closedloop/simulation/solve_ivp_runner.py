@@ -24,10 +24,14 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau, solve_ivp
 
 from ..errors import ClosedLoopError, IntegrationError, SingularConfigurationError
 
-__all__ = ["segment", "counting_solver", "SOLVER_CLASSES"]
+__all__ = ["segment", "counting_solver", "SOLVER_CLASSES", "STANDING_STEPS"]
 
 #: solve_ivp's methods by name, as OdeSolver classes.
 SOLVER_CLASSES = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+
+
+#: Successful steps in a row that do not advance t, after which a solver counts as stuck.
+STANDING_STEPS = 1000
 
 
 class _BudgetExceeded(Exception):
@@ -44,9 +48,17 @@ def counting_solver(run, method):
     watch = run.path.active
 
     class Counted(base):
+        standing = 0                                # successful steps in a row that left t where it was
+
         def _step_impl(self):
             t_before = self.t
             success, message = super()._step_impl()
+            if success and self.t == t_before:
+                self.standing += 1                  # LSODA over a run of 1e-300 s: for ever, t = 0
+                if self.standing >= STANDING_STEPS:
+                    return False, f"{self.standing} steps in a row left t at {self.t:.6g} s"
+            elif success:
+                self.standing = 0
             if success and self.t != t_before:
                 run.step_sizes.append(abs(self.t - t_before))
                 run.t_reached = self.t
@@ -166,6 +178,12 @@ def _solve(run, rhs, t0, y0, events, reached, overflow):
                 f"{options.method_name} failed at t = {_time_reached(run, t0):.6g} s ({steps}) in a segment of "
                 f"{run.t_end - t0:.3g} s: its Newton iteration met a matrix with non-finite entries (1/step beyond "
                 f"the range of floating-point numbers, or a Jacobian that overflowed); {run.advice()}"
+            ) from None
+        if "is NaN; solver cannot continue" in str(error):   # brentq on the interpolant of a runaway step
+            raise IntegrationError(
+                f"{options.method_name} could not locate a switch or det Phi_z = 0 in the step after t = "
+                f"{_time_reached(run, t0):.6g} s (step {_last_step(run):.3g} s): the step's interpolant is not "
+                f"finite, the motion ran away; {run.advice()}"
             ) from None
         if "different signs" not in str(error):
             raise

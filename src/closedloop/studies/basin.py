@@ -68,10 +68,10 @@ from ..simulation import switching as rule
 from ..slider_crank import (ANGLE_LIMIT, DEFAULT_READING, MOTIONS, SPEED_LIMIT, SliderCrankSystem, get_reading,
                             motion_codes, slider_crank_system)
 from ..slider_crank import initial_state as slider_crank_initial_state
-from ..validation import finite_array, positive_number
+from ..validation import finite_array, finite_number, positive_integer, positive_number
 
 __all__ = ["BasinMap", "basin_map", "integrate_outcomes", "reference_outcomes", "boundary_cells",
-           "compare_outcomes", "Agreement", "DEFAULT_STEP", "grid_values"]
+           "compare_outcomes", "Agreement", "DEFAULT_STEP", "MAX_STEPS", "grid_values"]
 
 #: Step of the fixed-step scheme [s]; its choice is measured in the book's basin chapter.
 DEFAULT_STEP = 0.02
@@ -83,16 +83,23 @@ MAX_ANGLE_PER_STEP = 0.6
 #: The most cell-steps (cells x t_end / step) a map may ask for: the book's 60 x 60 map over 20 s
 #: is 3.6e6 and takes about half a minute on one core, so 1e9 would take hours.
 MAX_CELL_STEPS = 1e9
+#: Most steps of one map (t_end / step): a step of the batch costs about 1 ms, so 1e5 steps take some
+#: 100 s (a 20 s map down to a step of 2e-4 s); the book's maps take 1000.
+MAX_STEPS = 100_000
 
 
-def grid_values(start, stop, count):
+def grid_values(start, stop, count, name="grid"):
     """``count`` evenly spaced values from ``start`` to ``stop``, ``stop`` left out.
 
     ``start + k (stop - start) / count`` for k = 0 .. count - 1, so that phi0
     in [0, 2 pi) does not count the same angle twice, and a grid of 4m cells
     on [0, 2 pi) holds pi/2 and pi exactly.  A map draws each sample as the
-    cell centred on it.
+    cell centred on it.  ``name`` is the grid's name in an error message.
     """
+    start, stop = finite_number(f"{name} start", start), finite_number(f"{name} stop", stop)
+    count = positive_integer(f"{name} count", count)
+    if not math.isfinite(stop - start):                 # 1e308 - (-1e308): no spacing to take
+        raise InputError(f"{name}: stop - start must be a finite number, got {stop:g} - {start:g}")
     return start + (stop - start) * np.arange(count) / count
 
 
@@ -287,10 +294,13 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
 
 
 def _check_time(t_end, step):
-    positive_number("t_end", t_end, unit="s")
-    positive_number("step", step, unit="s")
+    t_end = positive_number("t_end", t_end, unit="s")
+    step = positive_number("step", step, unit="s")
     if step > t_end:
         raise InputError(f"step: must be <= t_end = {t_end:g} s, got {step:g} s")
+    if t_end / step > MAX_STEPS:
+        raise InputError(f"step: t_end/step would be {t_end / step:.3g} steps, more than {MAX_STEPS:g} (about 1 ms "
+                         f"each); give a step >= {t_end / MAX_STEPS:.3g} s or a shorter t_end, got {step:g} s")
 
 
 def _check_step(system, step, rates):
