@@ -134,10 +134,11 @@ def _pivot(ax, point, size, zorder=1):
     return artists
 
 
-def _centre_of_mass(ax, point, size=9, zorder=6):
-    """The centre-of-mass symbol, a circle filled in two opposite quarters (here: halves)."""
+def _centre_of_mass(ax, point, gid, size=9, zorder=6):
+    """The centre-of-mass symbol, a circle half filled."""
     return ax.plot([point[0]], [point[1]], marker="o", ms=size, fillstyle="top", markerfacecolor=_INK,
-                   markerfacecoloralt="white", markeredgecolor=_INK, mew=1.0, ls="none", zorder=zorder)[0]
+                   markerfacecoloralt="white", markeredgecolor=_INK, mew=1.0, ls="none", zorder=zorder,
+                   gid=gid)[0]
 
 
 def _joints(ax, points, size, zorder=5):
@@ -151,15 +152,16 @@ def _label(ax, point, text, offset, fontsize, color=_INK, ha="center"):
                        ha=ha, va="center", fontsize=fontsize, color=color, zorder=8)
 
 
-def _dimension(ax, start, end, offset, text, fontsize, text_shift=0.0, color=_NOTE):
-    """A dimension line parallel to start-end, ``offset`` [m] to its left, with arrows at both ends."""
+def _dimension(ax, start, end, offset, text, fontsize, text_shift=0.0, color=_NOTE, gid=None):
+    """A dimension line parallel to start-end, ``offset`` [m] to its left, with arrows at both ends;
+    ``gid`` names the arrow (whose ``xy`` is the end, ``xyann`` the start)."""
     start, end = np.asarray(start, float), np.asarray(end, float)
     along = end - start
     normal = np.array([-along[1], along[0]]) / np.hypot(*along)
     p, q = start + offset * normal, end + offset * normal
     artists = [ax.annotate("", xy=tuple(q), xytext=tuple(p), zorder=3,
                            arrowprops=dict(arrowstyle="<|-|>", color=color, lw=0.9, shrinkA=0, shrinkB=0,
-                                           mutation_scale=9)),
+                                           mutation_scale=9), gid=gid),
                ax.plot(*np.transpose([start, p + 0.25 * offset * normal]), color=color, lw=0.6, zorder=3)[0],
                ax.plot(*np.transpose([end, q + 0.25 * offset * normal]), color=color, lw=0.6, zorder=3)[0]]
     middle = (p + q) / 2 + np.sign(offset) * (0.22 + text_shift) * normal * max(1.0, fontsize / 12)
@@ -169,21 +171,23 @@ def _dimension(ax, start, end, offset, text, fontsize, text_shift=0.0, color=_NO
 
 
 def _angle(ax, centre, start, stop, radius, text, fontsize, color=_NOTE, reference=None, at=0.5):
-    """An angle's arc from ``start`` to ``stop`` [rad] (counterclockwise) around ``centre``, an arrow at
-    ``stop``, its symbol beyond the arc's middle, and a dashed reference ray along ``start``."""
+    """An angle's arc from ``start`` to ``stop`` [rad] around ``centre`` (the short way, so a negative
+    angle turns clockwise), an arrow at ``stop``, its symbol beyond the arc, and a dashed reference
+    ray along ``start``."""
     from matplotlib.patches import Arc
 
-    sweep = (stop - start) % (2 * math.pi)
+    sweep = math.remainder(stop - start, 2 * math.pi)
     artists = []
     if reference:
         end = np.asarray(centre) + reference * _unit(start)
         artists.append(ax.plot([centre[0], end[0]], [centre[1], end[1]], ls=(0, (4, 3)), color=color, lw=0.8,
                                zorder=2)[0])
-    if sweep > 1e-3:
-        artists.append(ax.add_patch(Arc(tuple(centre), 2 * radius, 2 * radius, theta1=math.degrees(start),
-                                        theta2=math.degrees(start + sweep), color=color, lw=1.0, zorder=3)))
+    if abs(sweep) > 1e-3:
+        low, high = sorted((start, start + sweep))
+        artists.append(ax.add_patch(Arc(tuple(centre), 2 * radius, 2 * radius, theta1=math.degrees(low),
+                                        theta2=math.degrees(high), color=color, lw=1.0, zorder=3)))
         tip = np.asarray(centre) + radius * _unit(start + sweep)
-        back = np.asarray(centre) + radius * _unit(start + sweep - min(0.3, 0.5 * sweep))
+        back = np.asarray(centre) + radius * _unit(start + sweep - math.copysign(min(0.3, 0.5 * abs(sweep)), sweep))
         artists.append(ax.annotate("", xy=tuple(tip), xytext=tuple(back), zorder=3,
                                    arrowprops=dict(arrowstyle="-|>", color=color, lw=1.0, shrinkA=0, shrinkB=0,
                                                    mutation_scale=9)))
@@ -192,8 +196,9 @@ def _angle(ax, centre, start, stop, radius, text, fontsize, color=_NOTE, referen
     return artists
 
 
-def _arrow(ax, tail, head, text, fontsize, color, text_at="tail", offset=(0, 0)):
-    artists = [ax.annotate("", xy=tuple(head), xytext=tuple(tail), zorder=7,
+def _arrow(ax, tail, head, text, fontsize, color, text_at="tail", offset=(0, 0), gid=None):
+    """A force's arrow from ``tail`` to ``head``, named ``gid``, and its label."""
+    artists = [ax.annotate("", xy=tuple(head), xytext=tuple(tail), zorder=7, gid=gid,
                            arrowprops=dict(arrowstyle="-|>", color=color, lw=2.0, shrinkA=0, shrinkB=0,
                                            mutation_scale=16))]
     if text:
@@ -279,9 +284,9 @@ def draw_slider_crank(ax, s, parameters, color=_LINK, label=None, labels="none",
     size = _sizes(reach)
     w, h = size["half_width"], size["half_height"]
     artists = [ax.add_patch(Rectangle((c[0] - w, -h), 2 * w, 2 * h, facecolor=color, alpha=0.35, edgecolor=_INK,
-                                      lw=1.2, zorder=4))]
+                                      lw=1.2, zorder=4, gid="slider"))]
     artists.append(ax.plot([o[0], a[0], c[0]], [o[1], a[1], c[1]], "-", color=color, lw=4,
-                           solid_capstyle="round", label=label, zorder=4)[0])
+                           solid_capstyle="round", label=label, zorder=4, gid="links")[0])
     artists.append(_joints(ax, np.array([o, a, c]), 7))
     if labels == "none":
         return artists
@@ -308,8 +313,8 @@ def draw_slider_crank(ax, s, parameters, color=_LINK, label=None, labels="none",
     else:
         artists.append(_label(ax, o, "$C_1$ at $O$ ($a_1 = 0$)\n$m_1,\\ I_1$", (-1.2 * away, -3.0 * away),
                               fontsize, ha="right"))
-    artists.append(_centre_of_mass(ax, c1))
-    artists.append(_centre_of_mass(ax, c2))
+    artists.append(_centre_of_mass(ax, c1, "C1"))
+    artists.append(_centre_of_mass(ax, c2, "C2"))
     rod_normal = _unit(psi + math.pi / 2)
     artists.append(_label(ax, c2, "$C_2$\n$m_2,\\ I_2$", tuple(-2.0 * away * rod_normal * np.sign(rod_normal[1] or 1)),
                           fontsize))
@@ -317,10 +322,10 @@ def draw_slider_crank(ax, s, parameters, color=_LINK, label=None, labels="none",
         artists.append(_label(ax, c1, "$C_1$\n$m_1,\\ I_1$", (1.6 * away, -1.6 * away), fontsize))
     artists.append(_label(ax, c, "$m_3$", (0, -2.3 * away), fontsize))
     # the slider's coordinate x_C, measured along the guide from O
-    artists += _dimension(ax, o, c, -(2.6 * h + 0.08 * reach), "$x_C$", fontsize)
+    artists += _dimension(ax, o, c, -(2.6 * h + 0.08 * reach), "$x_C$", fontsize, gid="x_C")
     # the drive torque M on the crank, positive with phi, drawn behind the crank
     r = 0.2 * p.l1
-    artists.append(ax.annotate("", xy=tuple(r * _unit(phi + 4.0)), xytext=tuple(r * _unit(phi + 2.3)), zorder=7,
+    artists.append(ax.annotate("", xy=tuple(r * _unit(phi + 4.0)), xytext=tuple(r * _unit(phi + 2.3)), zorder=7, gid="M",
                                arrowprops=dict(arrowstyle="-|>", color=_FORCE, lw=1.6, mutation_scale=12,
                                                connectionstyle="arc3,rad=0.45", shrinkA=0, shrinkB=0)))
     artists.append(_label(ax, r * _unit(phi + 2.3), "$M$", (-0.9 * away, 0.2 * away), fontsize, color=_FORCE))
@@ -330,12 +335,12 @@ def draw_slider_crank(ax, s, parameters, color=_LINK, label=None, labels="none",
     y = -0.45 * h
     tail = np.array([edge - direction * 0.14 * reach, y])
     artists += _arrow(ax, tail, (edge, y), r"$F$ (while $\dot x_C > 0$)", fontsize, _FORCE, text_at="tail",
-                      offset=(-direction * 0.5 * away, 1.5 * away))
+                      offset=(-direction * 0.5 * away, 1.5 * away), gid="F")
     # gravity, down the y axis
     top = max(a[1], 0.0) + 0.1 * reach
     corner = np.array([reach + 0.05 * reach, top])
     artists += _arrow(ax, corner, corner - np.array([0.0, 0.16 * reach]), "$g$", fontsize, _INK, text_at="head",
-                      offset=(away, 0.6 * away))
+                      offset=(away, 0.6 * away), gid="g")
     # the x axis, along the guide
     artists.append(_label(ax, (reach + 1.3 * w, -h), "$x$", (0.8 * away, 0), fontsize, color=_NOTE))
     return artists
@@ -401,7 +406,7 @@ def slider_crank_diagram(system=None, phi=0.9, fontsize=12, values=True):
     return fig
 
 
-def animate_slider_crank(result, parameters, fps=15, speed=None, title=None, frames=None, dpi=72,
+def animate_slider_crank(result, parameters, fps=15, speed=None, title=None, frames=None, dpi=90,
                          alt=None):
     """A smooth offline HTML animation of a slider-crank run, drawn by :func:`draw_slider_crank`.
 
@@ -447,7 +452,7 @@ def animate_slider_crank(result, parameters, fps=15, speed=None, title=None, fra
 
     what = alt or (f"Animation of the slider-crank{f' ({title})' if title else ''}: crank OA, rod AC and "
                    "slider C moving along their run, with the time, the title and a 1 m scale bar on each frame.")
-    return _animate(result, setup, draw, (6.4, 3.4), fps, speed, frames, title, dpi, what)
+    return _animate(result, setup, draw, (6.4, 3.6), fps, speed, frames, title, dpi, what)
 
 
 # -- the four-bar ------------------------------------------------------------------------------
@@ -489,7 +494,7 @@ def draw_four_bar(ax, s, lengths, color=_LINK, label=None, labels="none", fontsi
     l0, l1, l2, l3 = (lengths[k] for k in ("l0", "l1", "l2", "l3"))
     reach = l0 + max(l1, l3)
     artists = [ax.plot([o[0], a[0], b[0], d[0]], [o[1], a[1], b[1], d[1]], "-", color=color, lw=4,
-                       solid_capstyle="round", label=label, zorder=4)[0]]
+                       solid_capstyle="round", label=label, zorder=4, gid="links")[0]]
     artists.append(_joints(ax, np.array([o, a, b, d]), 7))
     if labels == "none":
         return artists
@@ -515,13 +520,13 @@ def draw_four_bar(ax, s, lengths, color=_LINK, label=None, labels="none", fontsi
     artists += _dimension(ax, a, b, 0.1 * l2 * (1 if math.cos(theta2) >= 0 else -1), "$l_2$", fontsize)
     artists += _dimension(ax, d, b, -0.3 * l3 * (1 if math.cos(theta3) >= 0 else -1), "$l_3$", fontsize)
     for k, centre in enumerate(four_bar_centres(s, lengths), start=1):
-        artists.append(_centre_of_mass(ax, centre))
+        artists.append(_centre_of_mass(ax, centre, f"C{k}"))
         side = {1: 1, 2: 1, 3: -1}[k]                       # towards the inside of the loop
         artists.append(_label(ax, centre, f"$C_{k}$, $m_{k}$", (side * 2.6 * away, {1: 0.6, 2: -0.9, 3: 0.6}[k] * away),
                               fontsize))
     corner = np.array([max(b[0], l0) + 0.2 * reach, max(a[1], b[1], 0.0)])
     artists += _arrow(ax, corner, corner - np.array([0.0, 0.12 * reach]), "$g$", fontsize, _INK, text_at="head",
-                      offset=(away, 0.6 * away))
+                      offset=(away, 0.6 * away), gid="g")
     return artists
 
 
@@ -578,7 +583,7 @@ def four_bar_diagram(system, theta1=1.1, z_guess=None, fontsize=12, values=True)
     return fig
 
 
-def animate_four_bar(result, lengths, fps=15, speed=None, title=None, frames=None, dpi=72, alt=None):
+def animate_four_bar(result, lengths, fps=15, speed=None, title=None, frames=None, dpi=90, alt=None):
     """A smooth offline HTML animation of a four-bar run, drawn by :func:`draw_four_bar`.
 
     Parameters
@@ -603,7 +608,7 @@ def animate_four_bar(result, lengths, fps=15, speed=None, title=None, frames=Non
         ax.set_xlim(-1.15 * arm, l0 + 1.15 * arm)
         ax.set_ylim(-1.2 * arm, 1.2 * arm)
         _four_bar_frame(ax, lengths, reach)
-        return _scale_bar(ax, (-1.1 * arm, -1.12 * arm), 1.0 if reach > 2.5 else 0.1, 10)
+        return _scale_bar(ax, (-1.1 * arm, -1.05 * arm), 1.0 if reach > 2.5 else 0.1, 10)
 
     def draw(ax, s):
         return draw_four_bar(ax, s, lengths, labels="light", fontsize=11)
@@ -662,14 +667,14 @@ def _animate(result, setup, draw, size, fps, speed, frames, title, dpi, alt):
     times = np.linspace(t0, t1, count)
     index = np.abs(result.t[None, :] - times[:, None]).argmin(axis=1)          # the nearest output time
     fig = Figure(figsize=size, dpi=dpi)
-    ax = fig.add_axes((0.0, 0.0, 1.0, 0.9 if title else 1.0))
+    ax = fig.add_axes((0.0, 0.0, 1.0, 0.86))
     ax.set_aspect("equal")
     ax.set_axis_off()
     setup(ax)
     if title:
-        fig.text(0.5, 0.985, title, ha="center", va="top", fontsize=12, color=_INK)
-    pace = "" if speed == 1 else f" ({speed:g}x real time)"
-    stamp = fig.text(0.015, 0.985, "", ha="left", va="top", fontsize=11, color=_INK, family="monospace")
+        fig.text(0.015, 0.98, title, ha="left", va="top", fontsize=12, color=_INK, weight="bold")
+    pace = "" if speed == 1 else f", played at {speed:g}x real time"
+    stamp = fig.text(0.985, 0.98, "", ha="right", va="top", fontsize=11, color=_INK)
 
     frames_png = []
     moving = []
@@ -677,7 +682,7 @@ def _animate(result, setup, draw, size, fps, speed, frames, title, dpi, alt):
         for artist in moving:
             artist.remove()
         moving = draw(ax, result.s[:, index[k]])
-        stamp.set_text(f"t = {result.t[index[k]]:5.2f} s{pace}")
+        stamp.set_text(f"t = {result.t[index[k]]:.2f} s{pace}")
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", dpi=dpi)
         image = Image.open(buffer).convert("RGB").quantize(colors=32, method=Image.Quantize.MEDIANCUT, dither=0)
