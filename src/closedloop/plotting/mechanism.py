@@ -298,7 +298,7 @@ def draw_slider_crank(ax, s, parameters, color=_LINK, label=None, labels="none",
     note = fontsize * (0.85 if labels == "light" else 1.0)
     artists += _angle(ax, o, 0.0, phi, 0.22 * p.l1, r"$\varphi$", note)
     artists += _angle(ax, c, 0.0, psi, 0.12 * p.l2, r"$\psi$", note,
-                      reference=0.14 * p.l2 if labels == "full" else None, at=0.68)
+                      reference=0.14 * p.l2 if labels == "full" else None, at=0.8)
     if labels == "light":
         return artists
 
@@ -422,8 +422,8 @@ def animate_slider_crank(result, parameters, fps=15, speed=None, title=None, fra
     fps : float, optional
         Frames per second of playback.
     speed : float, optional
-        Seconds of motion per second of playback; default: the smallest whole number that keeps
-        the animation within 150 frames.  Shown on every frame when it is not 1.
+        Seconds of motion per second of playback; default: see :func:`playback` (20 s of motion
+        play at 2x real time).  Shown on every frame when it is not 1.
     title : str, optional
         Drawn on every frame (e.g. the case).
     frames : int, optional
@@ -622,8 +622,10 @@ def animate_four_bar(result, lengths, fps=15, speed=None, title=None, frames=Non
 
 # -- the shared player -------------------------------------------------------------------------
 
-#: At most this many frames by default (about 0.8 MB of palette PNGs for the slider-crank).
+#: At most this many frames by default (about 0.75 MB of palette PNGs for the slider-crank).
 MAX_FRAMES = 150
+#: A run shorter than this [s] is played in slow motion over this many seconds.
+MIN_PLAYBACK = 4.0
 
 
 def playback(duration, fps=15, speed=None, frames=None):
@@ -635,8 +637,9 @@ def playback(duration, fps=15, speed=None, frames=None):
         Seconds of motion.
     fps : float
     speed : float, optional
-        Seconds of motion per second of playback; default the smallest whole number that keeps
-        the count within :data:`MAX_FRAMES`.
+        Seconds of motion per second of playback.  Default: the smallest whole number that keeps
+        the count within :data:`MAX_FRAMES`, or slow motion over :data:`MIN_PLAYBACK` seconds for
+        a shorter run.
     frames : int, optional
         Number of frames; if given, ``speed`` follows from it.
 
@@ -649,7 +652,8 @@ def playback(duration, fps=15, speed=None, frames=None):
         frames = max(2, int(frames))
         return frames, duration * fps / frames
     if speed is None:
-        speed = max(1, math.ceil(duration * fps / MAX_FRAMES))
+        speed = max(1, math.ceil(duration * fps / MAX_FRAMES)) if duration >= MIN_PLAYBACK \
+            else duration / MIN_PLAYBACK
     return max(2, int(round(duration * fps / speed))), float(speed)
 
 
@@ -673,7 +677,7 @@ def _animate(result, setup, draw, size, fps, speed, frames, title, dpi, alt):
     setup(ax)
     if title:
         fig.text(0.015, 0.98, title, ha="left", va="top", fontsize=12, color=_INK, weight="bold")
-    pace = "" if speed == 1 else f", played at {speed:g}x real time"
+    pace = "" if speed == 1 else f", played at {speed:.2g}x real time"
     stamp = fig.text(0.985, 0.98, "", ha="right", va="top", fontsize=11, color=_INK)
 
     frames_png = []
