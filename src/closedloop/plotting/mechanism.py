@@ -608,7 +608,7 @@ def animate_four_bar(result, lengths, fps=15, speed=None, title=None, frames=Non
         ax.set_xlim(-1.15 * arm, l0 + 1.15 * arm)
         ax.set_ylim(-1.2 * arm, 1.2 * arm)
         _four_bar_frame(ax, lengths, reach)
-        return _scale_bar(ax, (-1.1 * arm, -1.05 * arm), 1.0 if reach > 2.5 else 0.1, 10)
+        return _scale_bar(ax, (-1.0 * arm, -1.05 * arm), 1.0 if reach > 2.5 else 0.1, 10)
 
     def draw(ax, s):
         return draw_four_bar(ax, s, lengths, labels="light", fontsize=11)
@@ -671,14 +671,16 @@ def _animate(result, setup, draw, size, fps, speed, frames, title, dpi, alt):
     times = np.linspace(t0, t1, count)
     index = np.abs(result.t[None, :] - times[:, None]).argmin(axis=1)          # the nearest output time
     fig = Figure(figsize=size, dpi=dpi)
-    ax = fig.add_axes((0.0, 0.0, 1.0, 0.86))
+    line = 16.0 / (72.0 * size[1])                     # one line of 11-12 pt text, as a fraction of the height
+    ax = fig.add_axes((0.0, 0.0, 1.0, 1.0 - 2.6 * line))
     ax.set_aspect("equal")
     ax.set_axis_off()
     setup(ax)
     if title:
         fig.text(0.015, 0.98, title, ha="left", va="top", fontsize=12, color=_INK, weight="bold")
     pace = "" if speed == 1 else f", played at {speed:.2g}x real time"
-    stamp = fig.text(0.985, 0.98, "", ha="right", va="top", fontsize=11, color=_INK)
+    stamp = fig.text(0.015, 0.98 - (1.15 * line if title else 0.0), "", ha="left", va="top", fontsize=11,
+                     color=_INK)
 
     frames_png = []
     moving = []
