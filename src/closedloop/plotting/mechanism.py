@@ -325,7 +325,8 @@ def draw_slider_crank(ax, s, parameters, color=_LINK, label=None, labels="none",
     artists += _dimension(ax, o, c, -(2.6 * h + 0.08 * reach), "$x_C$", fontsize, gid="x_C")
     # the drive torque M on the crank, positive with phi, drawn behind the crank
     r = 0.2 * p.l1
-    artists.append(ax.annotate("", xy=tuple(r * _unit(phi + 4.0)), xytext=tuple(r * _unit(phi + 2.3)), zorder=7, gid="M",
+    artists.append(ax.annotate("", xy=tuple(r * _unit(phi + 4.0)), xytext=tuple(r * _unit(phi + 2.3)), gid="M",
+                               zorder=7,
                                arrowprops=dict(arrowstyle="-|>", color=_FORCE, lw=1.6, mutation_scale=12,
                                                connectionstyle="arc3,rad=0.45", shrinkA=0, shrinkB=0)))
     artists.append(_label(ax, r * _unit(phi + 2.3), "$M$", (-0.9 * away, 0.2 * away), fontsize, color=_FORCE))
