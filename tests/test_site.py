@@ -1,7 +1,7 @@
 """The built site, read as a reader would: in headless Chromium, page by page.
 
 Builds the book with the README's command (`make book`, incremental), serves ``_build/html`` on
-127.0.0.1 and opens every page listed in ``_toc.yml``. A page fails on
+127.0.0.1 and opens the front page and every page listed in ``_toc.yml``. A page fails on
 
 - a console error or an uncaught page error (there is no list of harmless ones);
 - a failed request, or a response with an HTTP status of 400 or more, for the page or anything it loads;
@@ -9,7 +9,8 @@ Builds the book with the README's command (`make book`, incremental), serves ``_
   wider than the text column;
 - an image that does not load, or one with no alt text (an img with no non-empty alt, an svg with
   no accessible name, an animation whose container and frame image both have none);
-- a cell output longer than ``MAX_OUTPUT_LINES`` rendered lines (a table counts its rows);
+- a cell output longer than ``MAX_OUTPUT_LINES`` rendered lines (a table counts its body rows), or one
+  (a table) wider than the text column;
 - a build marker (``MARKERS``) anywhere in the page's text, solutions included;
 - a code block that scrolls sideways or is cut by the text column (solutions opened first).
 
@@ -100,7 +101,7 @@ def open_page(browser, site, page_name):
 
 
 #: Every check that reads the rendered page, in one pass.
-MEASURE = """() => {
+MEASURE = r"""() => {
     const article = document.querySelector('article') || document.body;
     const column = article.getBoundingClientRect();
     const blocks = [...document.querySelectorAll('div.math, span.math')];
@@ -128,7 +129,7 @@ MEASURE = """() => {
             .filter(a => !named(a) && ![...a.querySelectorAll('img')].every(named)).length,
         longOutputs: [...article.querySelectorAll('div.cell_output')].map(output => {
             const lines = [...output.querySelectorAll('pre')].map(renderedLines).reduce((a, b) => a + b, 0)
-                + output.querySelectorAll('tr').length;
+                + output.querySelectorAll('tbody tr').length;
             return {lines, start: output.textContent.trim().slice(0, 70)};
         }).filter(o => o.lines > %d),
         markers: %s.filter(m => article.textContent.includes(m)),
@@ -136,6 +137,10 @@ MEASURE = """() => {
             const r = pre.getBoundingClientRect();
             return pre.offsetParent !== null && (pre.scrollWidth > pre.clientWidth + 1 || r.right > column.right + 1);
         }).map(pre => pre.textContent.split('\n').reduce((a, b) => a.length >= b.length ? a : b).slice(0, 100)),
+        wideTables: [...article.querySelectorAll('div.cell_output table, div.cell_output div.output')].filter(e => {
+            const r = e.getBoundingClientRect();
+            return e.offsetParent !== null && (e.scrollWidth > e.clientWidth + 1 || r.right > column.right + 1);
+        }).map(e => e.textContent.trim().slice(0, 70)),
     };
 }""" % (MAX_OUTPUT_LINES, list(MARKERS))
 
@@ -146,7 +151,7 @@ OPEN_EVERYTHING = """() => {
 }"""
 
 
-@pytest.mark.parametrize("page_name", toc_pages())
+@pytest.mark.parametrize("page_name", ["index", *toc_pages()])
 def test_page_is_clean(browser, site, page_name):
     page, problems = open_page(browser, site, page_name)
     shots = ROOT / "_build" / "screenshots"
@@ -155,16 +160,19 @@ def test_page_is_clean(browser, site, page_name):
     page.evaluate(OPEN_EVERYTHING)
     found = page.evaluate(MEASURE)
     page.close()
-    assert problems == []
     math = found["math"]
-    assert math["typeset"] == math["blocks"] and math["errors"] == 0, math
-    assert found["wideMath"] == 0, f"{found['wideMath']} display equations stick out of the text column (1200 px)"
-    assert [i["src"] for i in found["images"] if not i["ok"]] == [], "images that do not load"
-    assert [i["src"] for i in found["images"] if not i["alt"]] == [], "images with no alt text"
-    assert found["unnamedSvg"] == 0 and found["unnamedAnimations"] == 0, "an svg or animation with no alt text"
-    assert found["longOutputs"] == [], f"outputs longer than {MAX_OUTPUT_LINES} lines"
-    assert found["markers"] == [], "build markers in the page"
-    assert found["wideCode"] == [], "code blocks wider than the text column (their longest lines)"
+    faults = problems + [f"{what}: {items}" for what, items in [
+        ("math not typeset or in error", [] if math["typeset"] == math["blocks"] and not math["errors"] else [math]),
+        ("display equations wider than the text column (1200 px)", found["wideMath"] or []),
+        ("images that do not load", [i["src"] for i in found["images"] if not i["ok"]]),
+        ("images with no alt text", [i["src"] for i in found["images"] if not i["alt"]]),
+        ("svgs or animations with no alt text", found["unnamedSvg"] + found["unnamedAnimations"] or []),
+        (f"outputs longer than {MAX_OUTPUT_LINES} lines", found["longOutputs"]),
+        ("build markers in the page", found["markers"]),
+        ("code blocks wider than the text column (their longest lines)", found["wideCode"]),
+        ("outputs wider than the text column", found["wideTables"]),
+    ] if items]
+    assert faults == []
     if page_name.startswith("chapters/"):
         assert math["blocks"] > 0 and found["images"], "a chapter without math or figures"
 
