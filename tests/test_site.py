@@ -91,7 +91,10 @@ def open_page(browser, site, page_name):
     page.on("console", lambda m: m.type == "error"
             and problems.append(f"console: {m.text} at {m.location.get('url')}"))
     page.on("pageerror", lambda e: problems.append(f"page error: {e}"))
-    page.on("requestfailed", lambda r: problems.append(f"request failed: {r.url} ({r.failure})"))
+    # net::ERR_ABORTED is a load the browser dropped itself (the front page's redirect leaving); a missing
+    # file is an HTTP status, caught below
+    page.on("requestfailed", lambda r: "ERR_ABORTED" in (r.failure or "")
+            or problems.append(f"request failed: {r.url} ({r.failure})"))
     page.on("response", lambda r: r.status >= 400 and problems.append(f"HTTP {r.status}: {r.url}"))
     page.goto(f"{site}/{page_name}.html", wait_until="networkidle")
     if page.locator("div.math, span.math").count():          # MathJax is only loaded where there is math
@@ -123,7 +126,7 @@ MEASURE = r"""() => {
             src: (i.getAttribute('src') || '').slice(0, 80), ok: i.complete && i.naturalWidth > 0,
             alt: (i.getAttribute('alt') || '').trim() !== ''})),
         unnamedSvg: [...article.querySelectorAll('svg')]
-            .filter(s => s.getAttribute('aria-hidden') !== 'true' && !s.closest('[aria-hidden="true"]') && !named(s))
+            .filter(s => !s.closest('[aria-hidden="true"], button, a') && !named(s))   // icons of controls aside
             .length,
         unnamedAnimations: [...article.querySelectorAll('div.animation')]
             .filter(a => !named(a) && ![...a.querySelectorAll('img')].every(named)).length,

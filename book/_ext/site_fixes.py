@@ -22,7 +22,7 @@ def write_front_page(app, exception):
     if exception is not None or app.builder.format != "html" or app.config.root_doc == "index":
         return
     target = html.escape(f"{app.config.root_doc}.html")
-    title = html.escape(app.config.project or "")
+    title = html.escape(app.config.html_title or app.config.project or "")
     icon = (f'<link rel="icon" href="_static/{html.escape(Path(app.config.html_favicon).name)}">'
             if app.config.html_favicon else "")
     Path(app.outdir, "index.html").write_text(
