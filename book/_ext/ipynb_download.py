@@ -126,6 +126,14 @@ class BookResolver(Resolver):
             return self.link(text or target, docname, label_id)
         return text or target
 
+    def label_url(self, label):
+        std = self.env.domaindata["std"]
+        found = self.env.domaindata.get("math", {}).get("objects", {}).get(label) or \
+            std["labels"].get(label) or std["anonlabels"].get(label)
+        if not found or found[0] == self.docname:
+            return None
+        return self.url(found[0])
+
     def cite(self, keys, style):
         names = []
         for key in keys:
@@ -254,6 +262,7 @@ def add_ipynb_source(app, pagename, templatename, context, doctree):
 
 def setup(app):
     app.setup_extension("solution_markers")
+    app.setup_extension("exercise_titles")
     # before sphinx-book-theme builds its header buttons (default priority 500)
     app.connect("html-page-context", add_ipynb_source, priority=400)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

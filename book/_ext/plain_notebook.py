@@ -31,6 +31,8 @@ ADMONITIONS = {"note", "tip", "hint", "important", "warning", "caution", "attent
                "seealso", "admonition", "margin", "sidebar", "topic", "epigraph", "pull-quote", "dropdown",
                "card", "grid-item-card", "todo"}
 TITLES = {"seealso": "See also", "todo": "To do"}
+#: A link target that MyST reads as a label (``[(16)](eq-16)``): no scheme, no path, no extension.
+LABEL_HREF = re.compile(r"^[A-Za-z][\w-]*$")
 DROPPED = {"toctree", "tableofcontents", "contents", "bibliography", "solution-end", "exercise-end",
            "glossary-end", "code-cell", "raw-cell"}
 CONTAINERS = {"grid", "grid-item", "tab-set", "div", "container", "only", "rst-class"}
@@ -109,6 +111,10 @@ class Resolver:
 
     def cite(self, keys, style):
         return "(" + "; ".join(keys) + ")"
+
+    def label_url(self, label):
+        """Where a Markdown link to a bare label, ``[(16)](eq-16)``, should go: a URL, or None for none."""
+        return None
 
     def glue(self, kind, key, spec):
         return f"`{key}`"
@@ -286,6 +292,8 @@ class Converter:
                 blocks.append((start, end, f"$$\n{token.content.strip()}\n$$"))
             elif token.type == "inline" and token.children:
                 found = [(c.meta["name"], c.content) for c in token.children if c.type == "myst_role"]
+                found += [("", c.attrs["href"]) for c in token.children if c.type == "link_open"
+                          and LABEL_HREF.match(str(c.attrs.get("href", "")))]
                 if found and start >= handled_until:
                     roles.append((start, end, found))
         out, i = [], 0
@@ -307,6 +315,11 @@ class Converter:
 
     def replace_roles(self, text, found):
         """``text`` with each role of ``found`` (in order) replaced by what the resolver makes of it."""
+        for name, href in [f for f in found if not f[0]]:    # links to a label: to its page, or plain text
+            url = self.resolver.label_url(href)
+            text = re.sub(r"\[((?:[^\[\]]|\[[^\]]*\])*)\]\(" + re.escape(href) + r"\)",
+                          lambda m: f"[{m.group(1)}]({url})" if url else m.group(1), text)
+        found = [f for f in found if f[0]]
         cursor, pieces = 0, []
         for name, content in found:
             words = [re.escape(w) for w in content.split()]
