@@ -227,3 +227,32 @@ def test_a_download_runs_top_to_bottom(executed, page):
         placeholders = sum(c.source.count("= ...") for c in notebook.cells if c.cell_type == "code")
         assert [e["ename"] for e in errors] == ["NotAnswered"] * placeholders, \
             f"{page}: {[e['ename'] + ': ' + e['evalue'] for e in errors]}"
+
+
+def test_the_converter_leaves_plain_markdown_and_keeps_math():
+    """book/_ext/plain_notebook.py on a sample of every kind of markup the detector knows."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("plain_notebook", ROOT / "book" / "_ext" / "plain_notebook.py")
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    sample = "\n\n".join([
+        "(sec-x)=\n## A section", "% a comment",
+        "Text {doc}`../chapters/06-four-cases`, {ref}`the outline <preface-course>`, {cite:p}`khang2018`, "
+        "$x^2$, {eq}`eq-16`, {glue:text}`speed:.3f` and [(16)](eq-16).",
+        ":::{admonition} Take note\n:class: tip\nBody with {term}`drift <constraint drift>`.\n:::",
+        "```{exercise} 6.1: The threshold speed\n:label: ex-6-threshold\n:nonumber:\n\nFind it.\n```",
+        "```{solution-start} ex-6-threshold\n:class: dropdown\n```",
+        "````{note}\nOuter\n```{warning}\nInner\n```\n````",
+        "$$\na = b\n$$ (eq-a)",
+        "```{prf:theorem} Orthogonality\n:label: thm\nStatement.\n```",
+    ])
+    assert len(myst_markup(sample)) >= 10
+    out = plain.convert_markdown(sample, plain.Resolver("chapters/06-four-cases", ROOT))
+    assert myst_markup(out) == [], out
+    for kept in ("## A section", "$x^2$", "$$\na = b\n$$", "### Exercise 6.1: The threshold speed", "#### Solution",
+                 "> **Take note**", "> > **Warning**", "**Theorem (Orthogonality).**", "(16)", "the outline",
+                 "The four cases"):
+        assert kept in out, kept
+    marked = "# BEGIN SOLUTION\n# STUDENT: x = ...\nx = 1\n# END SOLUTION\ncheck('6.4', x)"
+    assert plain.strip_markers(marked) == "x = 1\ncheck('6.4', x)"
