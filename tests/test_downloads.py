@@ -204,6 +204,7 @@ def test_a_download_has_no_myst_and_no_marker(built, page):
 @pytest.mark.parametrize("page", [p for p in PAGES if p.startswith("exercises/")])
 def test_an_exercise_download_is_the_student_version(built, page):
     notebook = downloaded(page)
+    assert not (HTML / "_sources" / f"{page}.md").exists(), f"{page}: its source, with the solutions, is offered"
     code_lines, sentences = solutions(page)
     assert code_lines and sentences, f"{page}: no solution found in the source (the test would prove nothing)"
     code = "\n".join(c.source for c in notebook.cells if c.cell_type == "code")

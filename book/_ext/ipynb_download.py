@@ -8,15 +8,16 @@ as the theme's own launch code does.
 - A chapter (any notebook page) is its executed notebook. MyST-NB writes it to
   ``jupyter_execute``, but when the outputs come from the execution cache (myst-nb 1.4)
   it writes it *without* them, so the outputs are merged back from the cache here.
-- An exercise page (``ipynb_student_pages``) is its student version, made by
+- An exercise page (``STUDENT_PAGES``) is its student version, made by
   ``exercises/make_student.py`` from the page's source: no solution, a ``...`` where an
   answer goes, the checks kept. It is not executed: its first check stops at its ``...``.
+  Its MyST source, which holds the solutions, is neither copied to ``_sources`` nor offered.
 
 Either way its markdown is plain Markdown (``plain_notebook``): every MyST directive and
 role is turned into what Jupyter renders, and what a role names (a page's title, an
 equation's number, a glued value, a citation) is taken from this build. A first cell says
 what the notebook needs to run, with links to the files it needs
-(``ipynb_download_files``), which are shipped beside it in ``_sources``.
+(``DOWNLOAD_FILES``), which are shipped beside it in ``_sources``.
 """
 
 from __future__ import annotations
@@ -246,6 +247,7 @@ def add_ipynb_source(app, pagename, templatename, context, doctree):
     resolver = BookResolver(app, pagename, notebook)
     if student:
         notebook = student_notebook(app, pagename)
+        context["sourcename"] = ""       # nor is its MyST source, solutions and all, copied and offered
     convert_notebook(notebook, resolver)
     needs = [path for pattern, paths in DOWNLOAD_FILES.items() if fnmatch.fnmatch(pagename, pattern)
              for path in paths]
