@@ -21,16 +21,22 @@ class NumberExerciseTitles(SphinxPostTransform):
     def run(self, **kwargs):
         for title in list(self.document.findall(nodes.title)):
             parent = title.parent
-            if parent is None or not {"exercise", "solution", "solution-start", "exercise-start"} & \
+            if parent is not None and {"exercise", "solution", "solution-start", "exercise-start"} & \
                     set(parent.get("classes", [])):
-                continue
-            for text in list(title.findall(nodes.Text)):
-                following = text.parent.children[text.parent.index(text) + 1:] if text.parent else []
-                if str(text).endswith(" (") and following and isinstance(following[0], nodes.Text):
-                    match = NUMBER.match(str(following[0]))
-                    if match:
-                        text.parent.replace(text, nodes.Text(str(text)[:-2] + f" {match.group(1)} ("))
-                        following[0].parent.replace(following[0], nodes.Text(str(following[0])[match.end():]))
+                self.renumber(title)
+
+    def renumber(self, element):
+        """In ``element``'s children (and theirs): " (" then "6.3: rest" becomes " 6.3 (" then "rest"."""
+        children = element.children
+        for i, child in enumerate(children):
+            if isinstance(child, nodes.Element):
+                self.renumber(child)
+            elif str(child).endswith(" (") and i + 1 < len(children) and isinstance(children[i + 1], nodes.Text):
+                match = NUMBER.match(str(children[i + 1]))
+                if match:
+                    children[i] = nodes.Text(str(child)[:-2] + f" {match.group(1)} (")
+                    children[i + 1] = nodes.Text(str(children[i + 1])[match.end():])
+                    children[i].parent = children[i + 1].parent = element
 
 
 def setup(app):
