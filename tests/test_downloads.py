@@ -33,6 +33,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 HTML = ROOT / "_build" / "html"
+#: A chapter's download holds its source's code cells unchanged, so running it is also the test that the
+#: chapter executes top to bottom (a separate chapter test would run the same cells a second time).
 PAGES = [f"chapters/{p.stem}" for p in sorted((ROOT / "chapters").glob("[0-9][0-9]-*.md"))] + \
         [f"exercises/{p.stem}" for p in sorted((ROOT / "exercises").glob("[0-9][0-9]-*.md"))]
 #: Started first, so that the pool's workers finish together.
@@ -216,6 +218,11 @@ def test_an_exercise_download_is_the_student_version(built, page):
     assert checks and code.count("= ...") == len(checks), f"{page}: one placeholder per check"
 
 
+def test_the_book_has_its_thirteen_chapters():
+    assert [p[len("chapters/"):][:2] for p in PAGES if p.startswith("chapters/")] == [f"{k:02d}" for k in
+                                                                                      range(1, 14)]
+
+
 @pytest.mark.parametrize("page", PAGES)
 def test_a_download_runs_top_to_bottom(executed, page):
     notebook, _ = executed[page]
@@ -224,6 +231,9 @@ def test_a_download_runs_top_to_bottom(executed, page):
               if o.get("output_type") == "error"]
     if page.startswith("chapters/"):
         assert errors == [], f"{page}: {[e['ename'] + ': ' + e['evalue'] for e in errors]}"
+        code_cells = [c for c in notebook.cells if c.cell_type == "code"]
+        assert code_cells, f"{page} has no code cell: every chapter computes what it shows"
+        assert all(c.get("execution_count") for c in code_cells), f"{page}: a code cell was not executed"
     else:
         placeholders = sum(c.source.count("= ...") for c in notebook.cells if c.cell_type == "code")
         assert [e["ename"] for e in errors] == ["NotAnswered"] * placeholders, \
