@@ -1,7 +1,6 @@
 """Random inputs thrown at every validator of closedloop: each outcome is a result or the library's own error.
 
-Run as ``python benchmarks/fuzz_inputs.py [--seed 0] [--count 500] [--timeout 60] [--only NAME]
-[--with-known-bugs]``.
+Run as ``python benchmarks/fuzz_inputs.py [--seed 0] [--count 500] [--timeout 60] [--only NAME]``.
 
 For each target (SliderCrankParameters, initial_state, System for the slider-crank and the
 four-bar, simulate, the command line's ``simulate`` and ``basin``) the script draws ``--count``
@@ -26,7 +25,7 @@ below it with its input.  Exit status 1 if any "other exception" or NaN result.
 
 Left out of the families, as legitimate but long runs rather than wrong ones: Baumgarte gains
 near their limit of 1e6 1/s and a max_step below 1e-3 s (both approach simulate's 1e6 steps).
-``--with-known-bugs`` adds the one text that still finds a bug, in cli.py: ``--phi0=--``.
+The text ``--`` as an option's value (``--phi0=--``), once a bug of cli.py, is drawn like any other.
 """
 
 from __future__ import annotations
@@ -427,9 +426,8 @@ class SimulateTarget(Target):
 
 # -- the command line -------------------------------------------------------------------------------
 
-#: Text that finds a known bug of cli.py, drawn only with --with-known-bugs: "--" as the value of
-#: --phi0=-- reaches cli.py as [] (argparse of Python 3.11) and raises TypeError or AttributeError.
-KNOWN_BUG_TEXTS = ()
+#: "--" as the value of --phi0=-- reaches cli.py as [] (argparse of Python 3.11); it was a bug, now refused.
+KNOWN_BUG_TEXTS = ("--",)
 
 
 def number_text(rng, typical, high=None, junk_rate=0.3):
@@ -657,13 +655,9 @@ def parse_args(argv=None):
     parser.add_argument("--timeout", type=float, default=60.0,
                         help="seconds after which an input counts as a hang (default 60)")
     parser.add_argument("--only", help="run only the targets whose name contains this")
-    parser.add_argument("--with-known-bugs", action="store_true",
-                        help="also draw the text that finds a known, unfixed bug of cli.py ('--' as a value)")
     return parser.parse_args(argv)
 
 
 if __name__ == "__main__":
     options = parse_args()
-    if options.with_known_bugs:
-        KNOWN_BUG_TEXTS = ("--",)
     sys.exit(0 if run(options.count, options.seed, options.timeout, options.only) else 1)

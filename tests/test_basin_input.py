@@ -7,7 +7,7 @@ import pytest
 
 from closedloop import InputError
 from closedloop.cli import main
-from closedloop.studies.basin import MAX_ANGLE_PER_STEP, MAX_CELL_STEPS, integrate_outcomes
+from closedloop.studies.basin import MAX_ANGLE_PER_STEP, MAX_CELL_STEPS, MAX_STEPS, integrate_outcomes
 from closedloop.slider_crank import slider_crank_system
 
 
@@ -33,9 +33,9 @@ def test_a_step_too_coarse_for_the_fastest_start_is_refused(system):
 
 
 def test_a_map_of_hours_is_refused(system):
-    cells = 1000
+    cells, step = 20_000, 0.01                   # 1e5 steps each (MAX_STEPS): 2e9 cell-steps in all
     with pytest.raises(InputError, match=r"cell-steps, more than the 1e\+09 a map may take"):
-        integrate_outcomes(system, np.zeros(cells), np.zeros(cells), MAX_CELL_STEPS, 0.01)
+        integrate_outcomes(system, np.zeros(cells), np.zeros(cells), MAX_STEPS * step, step)
 
 
 def test_the_command_line_refuses_a_coarse_step_in_one_line(capsys):

@@ -403,9 +403,7 @@ def number_texts(low, high):
     """Numbers in ``[low, high]`` written in several ways, odd spellings, and any short text."""
     written = st.floats(low, high).flatmap(lambda x: st.sampled_from(
         [repr(x), f"{x:g}", f"{x:.3e}", f" {x:.4f} ", f"{x:+.2f}", f"{x:E}", f"{x:_.3f}"]))
-    # "--" as the value of --opt=-- is refused in test_an_option_given_as_double_dash_is_an_error (a bug of
-    # cli.py and argparse, reported), so the generated text leaves it out.
-    other = st.one_of(st.sampled_from(SPELLINGS), st.text(max_size=6).filter(lambda s: s != "--"))
+    other = st.one_of(st.sampled_from(SPELLINGS), st.text(max_size=6))
     return mostly(written, other)
 
 
@@ -514,7 +512,7 @@ def ranges(good, anything):
     return mostly(good_range, st.one_of(
         st.tuples(st.sampled_from(anything), st.sampled_from(anything), st.sampled_from(COUNT_TEXTS)).map(":".join),
         st.sampled_from(["", "0:1", "0:1:2:3", ":::", "0:1:", "0:5e-324:3"]),
-        st.text(max_size=6).filter(lambda s: s != "--")), share=0.8)
+        st.text(max_size=6)), share=0.8)
 
 
 @st.composite
@@ -537,11 +535,10 @@ def test_command_line_basin(args, capsys):
     command_line(args, capsys)
 
 
-@pytest.mark.xfail(strict=True, raises=(TypeError, AttributeError),
-                   reason="cli.py: argparse (Python 3.11) passes [] for --opt=--, which _number, int() and "
-                          "parse_range do not expect; reported, not fixed here (cli.py is being changed)")
 @pytest.mark.parametrize("args", [["simulate", "--phi0=--", "--dphi0=1", "--t-end=0.1"],
                                   ["simulate", "--case=--", "--t-end=0.1"],
                                   ["basin", "--phi0=--", "--dphi0=0:1:1", "--t-end=0.1"]])
 def test_an_option_given_as_double_dash_is_an_error(args, capsys):
-    command_line(args, capsys)
+    # argparse of Python 3.11 hands --opt=-- to cli.py as []: refused as a usage error naming the option
+    status, _ = command_line(args, capsys)
+    assert status == 2

@@ -79,7 +79,12 @@ class _Parser(argparse.ArgumentParser):
 
     def parse_known_args(self, args=None, namespace=None):
         args = sys.argv[1:] if args is None else list(args)
-        return super().parse_known_args(self._join_negative_values(args), namespace)
+        namespace, extras = super().parse_known_args(self._join_negative_values(args), namespace)
+        for action in self._actions:            # argparse (3.11) hands --phi0=-- over as [], not as text
+            if action.option_strings and action.nargs is None and isinstance(getattr(namespace, action.dest, None),
+                                                                             list):
+                raise InputError(f"{action.option_strings[-1]}: expected a value, got '--'")
+        return namespace, extras
 
     def _takes_one_value(self, token):
         """True if ``token`` is, or (as argparse allows) abbreviates, an option taking one value."""
