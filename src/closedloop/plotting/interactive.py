@@ -61,7 +61,7 @@ class BasinMotions:
     step: float
 
 
-def basin_motions(basin, sample=0.2):
+def basin_motions(basin, sample=0.2, workers=1):
     """Integrate every cell of a basin map again, keeping phi(t): the motion behind each cell.
 
     The cells are stepped by the batch integrator of :mod:`closedloop.studies.basin` (its
@@ -75,29 +75,59 @@ def basin_motions(basin, sample=0.2):
     basin : closedloop.studies.basin.BasinMap
         The map (its grid, ``t_end``, step and reading are used).
     sample : float, optional
-        Spacing of the stored samples [s], a multiple of nothing in particular; default 0.2 s
-        (101 samples over 20 s).
+        Spacing of the stored samples [s]; default 0.2 s (101 samples over 20 s).
+    workers : int, optional
+        Processes to use, as for :func:`~closedloop.studies.basin.basin_map` (the cells are
+        dealt out in turn); 1 runs in this process.
 
     Returns
     -------
     BasinMotions
     """
-    from ..slider_crank import initial_state, slider_crank_system
-    from ..studies import basin as batch                 # the batch integrator's own steps
+    import multiprocessing
+    import os
+
+    from ..slider_crank import slider_crank_system
     from ..validation import positive_number
 
     sample = positive_number("sample", sample, unit="s")
-    system = slider_crank_system(reading=basin.reading)
+    if not (isinstance(workers, (int, np.integer)) and 1 <= workers <= (os.cpu_count() or 1) * 4):
+        raise ValueError(f"workers: must be an integer from 1 to {(os.cpu_count() or 1) * 4}, got {workers!r}")
     phi_grid, dphi_grid = np.meshgrid(basin.phi0, basin.dphi0)
-    model = batch._Model(system)
-    cells = batch._initial_cells(system, model, phi_grid.ravel().astype(float), dphi_grid.ravel().astype(float),
-                                 initial_state)
-    cells.finish_early = False
+    phi_flat, dphi_flat = phi_grid.ravel().astype(float), dphi_grid.ravel().astype(float)
     count = max(1, int(math.ceil(basin.t_end / basin.step - 1e-9)))
-    h = basin.t_end / count
+    samples = np.linspace(0.0, basin.t_end, int(round(basin.t_end / sample)) + 1)
+    order = [np.arange(phi_flat.size)[j::workers] for j in range(workers)]
+    tasks = [(basin.reading, phi_flat[o], dphi_flat[o], basin.t_end, count, samples) for o in order]
+    if workers == 1:
+        results = [_motion_chunk(tasks[0])]
+    else:
+        slider_crank_system(reading=basin.reading)       # derive once, before the workers fork
+        with multiprocessing.get_context("fork").Pool(workers) as pool:
+            results = pool.map(_motion_chunk, tasks)
+    phi = np.empty((phi_flat.size, samples.size))
+    excursion = np.empty(phi_flat.size)
+    for o, (part, reach) in zip(order, results):
+        phi[o], excursion[o] = part, reach
+    shape = basin.outcome.shape
+    return BasinMotions(times=samples, phi=phi.reshape(shape + (samples.size,)),
+                        excursion=excursion.reshape(shape), step=basin.t_end / count)
+
+
+def _motion_chunk(task):
+    """phi at the sample times and the largest excursion of some cells: the loop of integrate_outcomes."""
+    from ..slider_crank import initial_state, slider_crank_system
+    from ..studies import basin as batch                 # the batch integrator's own steps
+
+    reading, phi0, dphi0, t_end, count, samples = task
+    system = slider_crank_system(reading=reading)
+    model = batch._Model(system)
+    cells = batch._initial_cells(system, model, phi0, dphi0, initial_state)
+    cells.finish_early = False
+    h = t_end / count
     times, angles = [cells.t.copy()], [cells.q.copy()]
-    for k in range(1, count + 1):                        # the loop of integrate_outcomes
-        T = basin.t_end if k == count else k * h
+    for k in range(1, count + 1):
+        T = t_end if k == count else k * h
         batch._advance(model, cells, T)
         batch._check_stuck(model, cells, T)
         if k == count:
@@ -108,13 +138,8 @@ def basin_motions(basin, sample=0.2):
         times.append(cells.t.copy())
         angles.append(cells.q.copy())
     times, angles = np.array(times), np.array(angles)            # (steps + 1, cells)
-    samples = np.linspace(0.0, basin.t_end, int(round(basin.t_end / sample)) + 1)
-    phi = np.empty((angles.shape[1], samples.size))
-    for j in range(angles.shape[1]):
-        phi[j] = np.interp(samples, times[:, j], angles[:, j])
-    shape = basin.outcome.shape
-    return BasinMotions(times=samples, phi=phi.reshape(shape + (samples.size,)),
-                        excursion=cells.excursion.reshape(shape), step=h)
+    phi = np.array([np.interp(samples, times[:, j], angles[:, j]) for j in range(angles.shape[1])])
+    return phi.reshape(angles.shape[1], samples.size), cells.excursion.copy()
 
 
 class InteractiveFigure:
