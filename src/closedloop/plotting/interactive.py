@@ -354,8 +354,8 @@ def interactive_work_precision(rows, case=2, entries=None):
     legend = Legend(items=items, click_policy="hide", title="formulation (click: hide)", label_text_font_size="11px")
     plot.add_layout(legend, "right")
     methods = [m for m in METHOD_MARKERS if any(r["method"] == m for r in ok)]
-    plot.add_layout(Legend(items=[(m, [plot.scatter([], [], marker=METHOD_MARKERS[m], size=8, fill_color="white",
-                                                    line_color="black")]) for m in methods],
+    plot.add_layout(Legend(items=[(m, [plot.scatter([math.nan], [math.nan], marker=METHOD_MARKERS[m],
+                                                    size=8, fill_color="white", line_color="black")]) for m in methods],
                            title="method", label_text_font_size="11px"), "right")
     plot.add_tools(HoverTool(renderers=renderers, tooltips=(
         '<div style="font-size: 13px"><b>@label</b><br>method @method, rtol @rtol_text, atol @atol_text<br>'
