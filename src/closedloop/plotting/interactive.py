@@ -247,7 +247,7 @@ def interactive_basin_map(basin, motions=None, selected=(np.pi, 1.0)):
            "φ̇₀ = @dphi0{0.0000} rad/s<br>"
            "slider stuck: @stuck</div>")
     tools = "pan,wheel_zoom,box_zoom,reset,save"
-    left = figure(title=f"Outcome after {basin.t_end:g} s: hover a cell, click it for its motion",
+    left = figure(title=f"Outcome after {basin.t_end:g} s",
                   x_axis_label="initial crank angle φ₀ [rad]", y_axis_label="initial crank speed φ̇₀ [rad/s]",
                   x_range=(basin.phi0[0] - width / 2, basin.phi0[-1] + width / 2),
                   y_range=(basin.dphi0[0] - height / 2, basin.dphi0[-1] + height / 2),
@@ -286,7 +286,7 @@ def interactive_basin_map(basin, motions=None, selected=(np.pi, 1.0)):
         motion.data = {t: motion.data.t, phi: phi};
         const p0 = cells.data.phi0[i], d0 = cells.data.dphi0[i];
         limits.data = {t0: limits.data.t0, t1: limits.data.t1, phi: [p0 - 2 * Math.PI, p0 + 2 * Math.PI]};
-        title.text = "φ(t) from φ₀ = " + p0.toFixed(3) + " rad, φ̇₀ = " + d0.toFixed(3) + " rad/s (dashed: φ₀ ± 2π)";
+        title.text = "φ(t) from φ₀ = " + p0.toFixed(2) + ", φ̇₀ = " + d0.toFixed(2);
         """))
     note = ("The HTML edition of this book shows this basin map interactively: hovering a cell shows its start "
             "and outcome, clicking it shows its motion.")
@@ -299,7 +299,7 @@ def _limits(phi0, t_end):
 
 
 def _motion_title(phi0, dphi0):
-    return f"φ(t) from φ₀ = {phi0:.3f} rad, φ̇₀ = {dphi0:.3f} rad/s (dashed: φ₀ ± 2π)"
+    return f"φ(t) from φ₀ = {phi0:.2f}, φ̇₀ = {dphi0:.2f}"
 
 
 def interactive_work_precision(rows, case=2, entries=None):
