@@ -1,0 +1,165 @@
+"""Numbers that the chapters' prose states about a computed result are glued from the computation.
+
+Each entry of `CLAIMS` names a chapter, a glue key and a few words of the sentence that states the
+number. For each claim the test checks, without executing the chapter (tests/test_chapters.py does
+that, and checks there that each key is produced as a number):
+
+- the sentence exists in a markdown cell and pastes the key with ``{glue:text}`key...` `` (or
+  ``{glue}`key` ``);
+- a code cell of the same chapter calls ``glue("key", ...)``;
+- no digit is typed by hand in the sentence outside math, code, roles and links, except the input
+  numbers the claim lists (a time span, a case number): a result retyped beside or instead of the
+  glued value fails.
+"""
+
+import functools
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: (chapter file, glue key, words of the sentence, digits the sentence may hold as inputs)
+CLAIMS = [
+    ("04-orthogonality.md", "ch04-distance-over-tolerance",
+     "both stay within", ()),
+    ("04-orthogonality.md", "ch04-residual-over-tolerance",
+     "both hold", ()),
+    ("04-orthogonality.md", "ch04-call-time-ratio",
+     "the orthogonal right-hand side does more work per call", ()),
+    ("04-orthogonality.md", "ch04-largest-multiplier",
+     "the constraint forces reach", ("2",)),
+    ("04-orthogonality.md", "ch04-largest-cond-phi-z",
+     "is well conditioned all the way round", ()),
+    ("06-four-cases.md", "ch06-case1-excursion",
+     "swings up beyond the horizontal on the other side", ()),
+    ("06-four-cases.md", "ch06-case2-slowest",
+     "Starting with the potential energy of the top", ()),
+    ("06-four-cases.md", "ch06-case2-revolutions",
+     "Starting with the potential energy of the top", ()),
+    ("06-four-cases.md", "ch06-case3-farthest",
+     "The first swing is smaller than in case 1", ("1",)),
+    ("06-four-cases.md", "ch06-case4-slowest",
+     "the speed dips on every", ("1",)),
+    ("06-four-cases.md", "ch06-largest-residual",
+     "In all four runs", ("20",)),
+    ("06-four-cases.md", "ch06-thousands-stuck-by",
+     "The two matches of `thousands-opposing` are hollow", ()),
+    ("06-four-cases.md", "ch06-torque-share",
+     "Over that half turn the torque supplies only", ()),
+    ("06-four-cases.md", "ch06-deficit",
+     "Read as decimals, that deficit", ()),
+    ("06-four-cases.md", "ch06-gravity-amplitude",
+     "Read as decimals, that deficit", ()),
+    ("06-four-cases.md", "ch06-smallest-kinetic",
+     "Read as decimals, that deficit", ()),
+    ("06-four-cases.md", "ch06-largest-kinetic",
+     "Read as decimals, that deficit", ()),
+    ("06-four-cases.md", "ch06-thousands-deficit-kj",
+     "Read as thousands, the deficit is", ()),
+    ("06-four-cases.md", "ch06-thousands-deficit-low",
+     "Read as thousands, the deficit is", ()),
+    ("06-four-cases.md", "ch06-thousands-deficit-high",
+     "Read as thousands, the deficit is", ()),
+    ("06-four-cases.md", "ch06-printed-runaway-by",
+     "With thousands it does so beside a huge torque", ()),
+    ("06-four-cases.md", "ch06-case1-sticks-at",
+     "Both swings decay and then freeze", ("1", "3")),
+    ("06-four-cases.md", "ch06-case3-sticks-at",
+     "Both swings decay and then freeze", ("1", "3")),
+    ("06-four-cases.md", "ch06-case3-torque-push",
+     "in case 3 only just", ("3",)),
+]
+
+#: What may hold digits without being a typed result: display and inline math, inline code,
+#: roles with their content (glue, ref, doc, cite, ...), Markdown links, and equation numbers
+#: written as the book writes them, "(26)" or "(7.b)".
+_NOT_PROSE = re.compile(r"\$\$.*?\$\$|\$[^$]*\$|\{[\w:-]+\}`[^`]*`|`[^`]*`|\[[^\]]*\]\([^)]*\)"
+                        r"|\(\d+(?:\.[a-z])?\)", re.S)
+#: A sentence ends at '.', '!' or '?' (perhaps closing a parenthesis) followed by white space and
+#: a capital, a role, math, code or a parenthesis.
+_SENTENCE_END = re.compile(r"(?:(?<=[.!?])|(?<=[.!?]\)))\s+(?=[A-Z{$`(])")
+
+
+@functools.cache
+def markdown_and_code(chapter):
+    """The markdown cells and the code cells of a chapter, as tuples of source strings."""
+    import jupytext
+
+    notebook = jupytext.read(ROOT / "chapters" / chapter)
+    cells = {"markdown": [], "code": []}
+    for cell in notebook.cells:
+        if cell.cell_type in cells:
+            cells[cell.cell_type].append(cell.source)
+    return tuple(cells["markdown"]), tuple(cells["code"])
+
+
+def sentences(markdown):
+    """Every sentence of the markdown cells, with its white space collapsed."""
+    for source in markdown:
+        for paragraph in re.split(r"\n\s*\n", source):
+            text = " ".join(paragraph.split())
+            yield from _SENTENCE_END.split(text)
+
+
+def sentence_with(markdown, words):
+    """The one sentence that contains `words`."""
+    found = [s for s in sentences(markdown) if words in s]
+    assert len(found) == 1, f"{len(found)} sentences contain {words!r}"
+    return found[0]
+
+
+def pastes(sentence, key):
+    """Whether the sentence pastes the glue key (with or without a format spec)."""
+    return re.search(r"\{glue(?::text)?\}`" + re.escape(key) + r"(:[^`]*)?`", sentence) is not None
+
+
+def typed_digits(sentence):
+    """The numbers typed in the sentence's prose, outside math, code, roles and link targets."""
+    return re.findall(r"\d+(?:[.,]\d+)*", _NOT_PROSE.sub(" ", sentence))
+
+
+def defines(code, key):
+    """Whether a code cell calls glue with this key as a string literal."""
+    return any(re.search(r"\bglue\(\s*[\"']" + re.escape(key) + r"[\"']", source) for source in code)
+
+
+@pytest.mark.parametrize("chapter, key, words, allowed", CLAIMS, ids=[c[1] for c in CLAIMS])
+def test_claim_is_glued_from_the_computation(chapter, key, words, allowed):
+    markdown, code = markdown_and_code(chapter)
+    sentence = sentence_with(markdown, words)
+    assert pastes(sentence, key), f"{chapter}: the sentence does not paste {key}: {sentence}"
+    assert defines(code, key), f"{chapter}: no code cell calls glue({key!r}, ...)"
+    typed = [number for number in typed_digits(sentence) if number not in allowed]
+    assert not typed, f"{chapter}: hand-typed numbers {typed} in: {sentence}"
+
+
+def test_keys_are_unique_and_named_after_their_chapter():
+    keys = [key for _, key, _, _ in CLAIMS]
+    assert len(set(keys)) == len(keys)
+    for chapter, key, _, _ in CLAIMS:
+        assert key.startswith(f"ch{chapter[:2]}-"), key
+
+
+def test_every_glued_key_of_a_chapter_is_a_listed_claim():
+    """A number pasted into prose but missing here would escape the checks above."""
+    listed = {(chapter, key) for chapter, key, _, _ in CLAIMS}
+    for path in sorted((ROOT / "chapters").glob("*.md")):
+        markdown, _ = markdown_and_code(path.name)
+        for source in markdown:
+            for key in re.findall(r"\{glue(?::text)?\}`([^`:]+)", source):
+                assert (path.name, key) in listed, f"{path.name} pastes {key}, not in CLAIMS"
+
+
+@pytest.mark.parametrize("sentence, key, typed", [
+    ("It takes {glue:text}`ch09-x:.2f` s.", "ch09-x", []),
+    ("It takes {glue:text}`ch09-x:.2f` s, about 15 times.", "ch09-x", ["15"]),
+    ("It takes 0.25 s ({glue:text}`ch09-x`).", "ch09-x", ["0.25"]),
+    ("With $\\alpha = 5$ and `rtol=1e-9` ([(16)](eq-16)) it takes {glue}`ch09-x`.", "ch09-x", []),
+])
+def test_the_checks_see_a_retyped_number(sentence, key, typed):
+    """The helpers find a glued key and a hand-typed number, and skip math, code and links."""
+    assert pastes(sentence, key)
+    assert typed_digits(sentence) == typed
+    assert not pastes(sentence.replace(key, "ch09-y"), key)
