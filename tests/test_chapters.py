@@ -54,3 +54,27 @@ def test_chapter_executes_without_error(path, executed):
     errors = [o for c in code_cells for o in c.get("outputs", []) if o.get("output_type") == "error"]
     assert not errors
     assert all(c.get("execution_count") for c in code_cells), "a code cell was not executed"
+
+
+@pytest.mark.parametrize("path", CHAPTERS, ids=lambda p: p.stem)
+def test_chapter_glues_the_numbers_its_prose_pastes(path, executed):
+    """Each key of tests/test_prose_claims.py is glued when the chapter runs, as a plain number."""
+    import ast
+
+    from tests.test_prose_claims import CLAIMS
+
+    notebook = executed[path]
+    if isinstance(notebook, Exception):
+        pytest.skip("the chapter did not execute (its own test fails)")
+    glued = {}
+    for cell in notebook.cells:
+        for output in cell.get("outputs", []):
+            name = output.get("metadata", {}).get("scrapbook", {}).get("name")
+            if name:
+                prefix = output["metadata"]["scrapbook"].get("mime_prefix", "")
+                glued[name] = output["data"].get(prefix + "text/plain")
+    for chapter, key, _, _ in CLAIMS:
+        if chapter == path.name:
+            assert key in glued, f"{path.name} does not glue {key}"
+            value = ast.literal_eval(glued[key])    # '{glue:text}' formats only plain numbers
+            assert isinstance(value, (int, float)), f"{key} is glued as {glued[key]!r}"
