@@ -22,6 +22,14 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: (chapter file, glue key, words of the sentence, digits the sentence may hold as inputs)
 CLAIMS = [
+    ("03-baumgarte.md", "ch03-nfev-doubling",
+     "Larger gains cost more right-hand-side evaluations", ("10", "20")),
+    ("03-baumgarte.md", "ch03-largest-alpha-h",
+     "In every row", ()),
+    ("03-baumgarte.md", "ch03-alpha-h-at-5",
+     "In every row", ()),
+    ("03-baumgarte.md", "ch03-alpha-h-at-50",
+     "In every row", ()),
     ("04-orthogonality.md", "ch04-distance-over-tolerance",
      "both stay within", ()),
     ("04-orthogonality.md", "ch04-residual-over-tolerance",
