@@ -53,7 +53,7 @@ def plot_basin_map(basin, title=None, cases=True, ax=None):
                     ax.annotate(f"{case.number}", (case.phi0, case.dphi0), xytext=(7, 5), textcoords="offset points",
                                 fontsize=12, fontweight="bold")
             handles.append(ax.plot([], [], "o", ms=9, mfc="white", mec="black", mew=1.5,
-                                   label="the paper's cases 1-4")[0])
+                                   label="the paper's cases, numbered")[0])
         ax.grid(False)
         ax.set_xlim(phi_edges[0], phi_edges[-1])
         ax.set_ylim(dphi_edges[0], dphi_edges[-1])
