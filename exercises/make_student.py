@@ -13,7 +13,10 @@ student version is the same notebook with:
 - the same replacement in code cells outside solutions.
 
 The result is saved as .ipynb for handing out, with the ``checking`` package
-beside it. Student notebooks are build outputs and are never committed.
+beside it, its markdown made plain (``book/_ext/plain_notebook.py``: no MyST directive or
+role left, which Jupyter would show as raw text). The book's download of an exercise page
+is this same student version (``book/_ext/ipynb_download.py``). Student notebooks are
+build outputs and are never committed.
 """
 
 from __future__ import annotations
@@ -99,6 +102,16 @@ def exercise_notebooks():
     return sorted(HERE.glob("[0-9][0-9]-*.md"))
 
 
+def _plain_notebook():
+    """The book's converter of MyST Markdown to plain Markdown (book/_ext/plain_notebook.py)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("plain_notebook", HERE.parent / "book" / "_ext" / "plain_notebook.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def write_student_versions(output: Path) -> list[Path]:
     """Write one student .ipynb per exercise notebook into ``output``; return their paths."""
     import shutil
@@ -110,8 +123,10 @@ def write_student_versions(output: Path) -> list[Path]:
     shutil.copytree(HERE / "checking", output / "checking", dirs_exist_ok=True,
                     ignore=shutil.ignore_patterns("__pycache__"))
     written = []
+    plain = _plain_notebook()
     for source in exercise_notebooks():
         notebook = jupytext.reads(student_markdown(source.read_text()), fmt="md:myst")
+        plain.convert_notebook(notebook, plain.Resolver(f"exercises/{source.stem}", HERE.parent))
         target = output / f"{source.stem}.ipynb"
         jupytext.write(notebook, target, fmt="ipynb")
         written.append(target)

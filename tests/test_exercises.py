@@ -90,3 +90,33 @@ def test_every_check_reports_a_wrong_answer_as_wrong(path, capsys):
         assert check(check.expected_value()) is True
         with pytest.raises(NotAnswered, match=f"Exercise {label} is not yet answered"):
             check(...)
+
+
+def exercise_numbers(path):
+    """The numbers in the titles of a page's ``{exercise}`` blocks, in order ("6.1", "6.2", ...)."""
+    import re
+
+    titles = re.findall(r"^`{3,}\{exercise\} (.*)$", path.read_text(), flags=re.M)
+    return [re.match(r"(\d+\.\d+): ", title).group(1) if re.match(r"\d+\.\d+: ", title) else title
+            for title in titles]
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_one_numbering_from_the_chapter_to_its_exercise_page_and_its_checks(path):
+    """Chapter N's exercises are N.1 .. N.k, its page's N.k+1 .. N.k+m, and the checks are the page's."""
+    import re
+
+    n = int(path.name[:2])
+    chapter = ROOT / "chapters" / path.name
+    in_chapter, on_page = exercise_numbers(chapter), exercise_numbers(path)
+    assert in_chapter + on_page == [f"{n}.{k}" for k in range(1, len(in_chapter) + len(on_page) + 1)]
+    assert list(checks_of(path)) == on_page
+    assert re.findall(r'check\("([\d.]+)"', path.read_text()) == on_page
+    # every {exercise} is unnumbered by sphinx-exercise, so that its title's number is the only one
+    assert chapter.read_text().count(":nonumber:") == len(in_chapter)
+    # the chapter ends with a link to its exercise page, which links back at its top
+    tail = chapter.read_text().rstrip().splitlines()[-2:]
+    assert f"{{doc}}`../exercises/{path.stem}`" in " ".join(tail)
+    assert f"{on_page[0]} to {on_page[-1]}" in " ".join(tail)
+    head = path.read_text().split("```{code-cell}")[0]
+    assert f"{{doc}}`../chapters/{path.stem}`" in head and f"{in_chapter[0]} to {in_chapter[-1]}" in head

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from closedloop import (Baumgarte, IntegrationError, InputError, Minimal, Orthogonal,
+from closedloop import (Baumgarte, ClosedForm, IntegrationError, InputError, Minimal, Orthogonal,
                         SingularConfigurationError, simulate)
 from closedloop.fixed_step import (baumgarte_roots, rk4, rk4_baumgarte_growth, rk4_baumgarte_stable,
                                    rk4_real_axis_limit, rk4_stability_function, rk4_stability_map)
@@ -74,6 +74,17 @@ def test_observed_rk4_map_agrees_with_linear_theory(smooth_slider_crank):
     observed = growth <= 1.0
     assert 0.2 < theory.mean() < 0.8                  # the grid straddles the boundary
     assert (observed == theory).mean() >= 0.9
+
+
+def test_rk4_takes_every_formulation_and_closed_form_is_baumgarte(smooth_slider_crank):
+    """ClosedForm's generated right-hand side returns a list (for ode.dop853): rk4 took it for an array
+    and raised TypeError. ClosedForm(5, 5) is (15) solved in closed form: the same steps as Baumgarte(5, 5)."""
+    state = initial_state(smooth_slider_crank, 1.0, 1.0)
+    closed = rk4(smooth_slider_crank, ClosedForm(5, 5), state.s, state.sd, 0.01, 100)
+    baumgarte = rk4(smooth_slider_crank, Baumgarte(5, 5), state.s, state.sd, 0.01, 100)
+    assert closed.diverged_at is None and closed.t[-1] == pytest.approx(1.0)
+    assert np.max(np.abs(closed.s - baumgarte.s)) < 1e-10
+    assert abs(closed.s[0, -1] - closed.s[0, 0]) > 0.1                  # the crank turned
 
 
 def test_rk4_refuses_switched_forces_and_bad_steps(smooth_slider_crank):

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from closedloop import Augmented, InputError, Minimal, Projected, project_state, simulate
-from closedloop.slider_crank import CASES, initial_state
+from closedloop import Augmented, ConvergenceError, InputError, Minimal, Projected, project_state, simulate
+from closedloop.slider_crank import CASES, initial_state, slider_crank_system
 
 NEWTON_LEVEL = 1e-13          # Newton's tolerance 1e-15 (1 + |s|), with |s| up to about 20 rad in 20 s
 
@@ -64,3 +64,14 @@ def test_accuracy_converges_to_the_reference(slider_crank, case2):
 def test_methods_that_cannot_be_reset_are_refused(slider_crank, case2, method):
     with pytest.raises(InputError, match="projected formulation needs an explicit Runge-Kutta method.*RK45"):
         simulate(slider_crank, case2, 1.0, formulation=Projected(), method=method)
+
+
+def test_a_tolerance_below_floating_point_is_named_not_blamed_on_the_integrator():
+    """Newton reaches |f| ~ 1e-16 and stalls there: the message says so, not "left the manifold too far"."""
+    system = slider_crank_system()
+    state = initial_state(system, 1.0, 1.0)
+    with pytest.raises(ConvergenceError, match=r"stalled at \|f\| = .* give a tolerance >= 1e-13") as error:
+        project_state(system, state.s + [0.0, 1e-3, 0.0], state.sd, 0.5, tolerance=1e-20)
+    assert "too far" not in str(error.value)
+    with pytest.raises(ConvergenceError, match=r"\(\|f\| = 0\.7.*left the constraint manifold too far"):
+        project_state(system, state.s + [0.0, 1.0, 0.5], state.sd, 0.5, max_iterations=2)

@@ -4,7 +4,7 @@ Each chapter's module (``ch01`` ... ``ch07``) defines ``CHECKS``, a mapping from
 exercise label to a :class:`Check`. A notebook calls::
 
     from checking.ch03 import check
-    check("3.2", my_answer)
+    check("3.5", my_answer)
 
 The expected value is computed by the ``closedloop`` library when the check runs
 (never typed in), and compared with a tolerance. An answer still left as ``...``
@@ -35,7 +35,7 @@ class Check:
     Attributes
     ----------
     label : str
-        The exercise, e.g. "3.2".
+        The exercise, e.g. "3.5".
     expected : callable
         Computes the right answer (with the library), once; it is cached.
     compare : callable

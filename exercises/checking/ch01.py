@@ -48,17 +48,17 @@ def _can_switch_branches():
 
 
 CHECKS = {
-    "1.1": Check("1.1", _degrees_of_freedom, numeric(0, 0), "count coordinates minus independent constraints.",
+    "1.4": Check("1.4", _degrees_of_freedom, numeric(0, 0), "count coordinates minus independent constraints.",
                  lambda expected: expected + 1),
-    "1.2": Check("1.2", _dead_centre, same_configuration(),
+    "1.5": Check("1.5", _dead_centre, same_configuration(),
                  "at phi = pi, (28) gives sin psi = 0; then use (27) with x_C > 0 (the slider right of "
                  "the crank).",
                  scaled()),
-    "1.3": Check("1.3", _left_branch_x, numeric(1e-9, 1e-12),
+    "1.6": Check("1.6", _left_branch_x, numeric(1e-9, 1e-12),
                  "start Newton with psi near 0: the rod then points the other way.", scaled()),
-    "1.4": Check("1.4", _stroke, numeric(1e-12, 1e-12),
+    "1.7": Check("1.7", _stroke, numeric(1e-12, 1e-12),
                  "the slider's extreme positions are the two dead centres, phi = 0 and phi = pi.", scaled()),
-    "1.5": Check("1.5", _can_switch_branches, choice,
+    "1.8": Check("1.8", _can_switch_branches, choice,
                  "how many solutions does sin psi = (l1/l2) sin phi have when l1 < l2, and do they ever meet?",
                  another_letter()),
 }

@@ -8,7 +8,7 @@ from closedloop.slider_crank import CASES, initial_state, slider_crank_model, sl
 
 from . import Check, choice, make_check, numeric, scaled, symbolic
 
-#: phi, phi' of the state in exercises 2.2 and 2.3: crank pointing down, slider moving outward.
+#: phi, phi' of the state in exercises 2.5 and 2.6: crank pointing down, slider moving outward.
 OUTWARD = (3.0 * np.pi / 2.0, 1.0)
 
 
@@ -39,24 +39,24 @@ def _drift_case_4():
 
 
 CHECKS = {
-    "2.1": Check("2.1", _mass_matrix, symbolic(),
+    "2.4": Check("2.4", _mass_matrix, symbolic(),
                  "M_ij is the second derivative of T with respect to the i-th and j-th velocities: a cross "
                  "term c phi' psi' of T gives c to both M_12 and M_21. Keep every symbol of T, even those "
                  "that Table 1 sets to zero.",
                  _flip_coupling),
-    "2.2": Check("2.2", lambda: _outward_solution()[0], numeric(1e-6, 1e-9),
+    "2.5": Check("2.5", lambda: _outward_solution()[0], numeric(1e-6, 1e-9),
                  "the matrix is [[M, Phi_s^T], [Phi_s, 0]], the right-hand side [p1; p2] with "
                  "p2 = -(Phi_s' s') of (11); the first n entries of the solution are s''.",
                  scaled()),
-    "2.3": Check("2.3", lambda: _outward_solution()[1][0], numeric(1e-6, 1e-9),
+    "2.6": Check("2.6", lambda: _outward_solution()[1][0], numeric(1e-6, 1e-9),
                  "the slider's row of (8) involves only the third column of Phi_s; which entries of it "
                  "are not zero, and with which sign does lambda_1 appear?",
                  scaled()),
-    "2.4": Check("2.4", _drift_case_4, numeric(2e-2, 0.0),
+    "2.7": Check("2.7", _drift_case_4, numeric(2e-2, 0.0),
                  "integrate (12) with Augmented() for 20 s from case 4's consistent initial state, RK45 "
                  "with rtol = atol = 1e-6, and take the largest |f| of (32) over the run.",
                  scaled()),
-    "2.5": Check("2.5", lambda: "c", choice,
+    "2.8": Check("2.8", lambda: "c", choice,
                  "the differentiation index counts the time differentiations needed until every unknown, "
                  "the multipliers included, obeys an ODE. Apply that definition to the unknowns s, v and "
                  "lambda of (12) as posed.",

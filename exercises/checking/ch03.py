@@ -7,11 +7,11 @@ from closedloop.slider_crank import CASES, initial_state, slider_crank_system
 
 from . import Check, another_letter, choice, make_check, numeric, scaled
 
-#: alpha, beta of exercise 3.1 (overdamped).
+#: alpha, beta of exercise 3.5 (overdamped).
 ROOT_GAINS = (5.0, 4.0)
-#: alpha, beta of exercise 3.2.
+#: alpha, beta of exercise 3.6.
 P2_GAINS = (2.0, 8.0)
-#: The step of exercises 3.3 and 3.4 [s].
+#: The step of exercises 3.7 and 3.8 [s].
 STEP = 0.01
 
 
@@ -73,23 +73,23 @@ def _critical_kick_response(alpha=5.0, kick=1.0):
 
 
 CHECKS = {
-    "3.1": Check("3.1", _roots, same_roots(),
+    "3.5": Check("3.5", _roots, same_roots(),
                  "put f_i = exp(mu t) into one component of (15) and solve the quadratic for mu; "
                  "with alpha > beta both roots are real.",
                  lambda expected: np.asarray(expected) * 2.0),
-    "3.2": Check("3.2", _spoiled_p2, numeric(1e-6, 1e-9),
+    "3.6": Check("3.6", _spoiled_p2, numeric(1e-6, 1e-9),
                  "(17) has three terms. Phi_s s' is f', and system.dynamics returns the product "
                  "Phi_s' s' (not Phi_s'); mind the signs and the square on beta.",
                  scaled()),
-    "3.3": Check("3.3", _step_rule_gains, numeric(1e-9, 0.0),
+    "3.7": Check("3.7", _step_rule_gains, numeric(1e-9, 0.0),
                  "the rule ties both gains to the step; give [alpha, beta] in 1/s, alpha first.",
                  scaled()),
-    "3.4": Check("3.4", _rule_against_baumgarte, numeric(5e-2, 0.0),
+    "3.8": Check("3.8", _rule_against_baumgarte, numeric(5e-2, 0.0),
                  "run both formulations with the same method, tolerances and t_eval; the first number is "
                  "max |f| of Baumgarte(5, 5) over that of the rule, the second nfev of the rule over "
                  "that of Baumgarte(5, 5).",
                  scaled()),
-    "3.5": Check("3.5", _critical_kick_response, choice,
+    "3.9": Check("3.9", _critical_kick_response, choice,
                  "a double root mu of the characteristic equation of (15) gives the solutions exp(mu t) "
                  "and t exp(mu t); fit their combination to the two initial conditions and sketch it.",
                  another_letter()),

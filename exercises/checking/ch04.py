@@ -10,9 +10,9 @@ from closedloop.slider_crank import CASES, initial_state, slider_crank_model, sl
 
 from . import Check, another_letter, choice, make_check, numeric, scaled, symbolic
 
-#: The configuration of exercise 4.1: not on the constraint manifold (27)-(28).
+#: The configuration of exercise 4.5: not on the constraint manifold (27)-(28).
 OFF_MANIFOLD = (2.0, 2.9, 4.0)
-#: The slider offset [m] of exercise 4.2, away from case 2's consistent start.
+#: The slider offset [m] of exercise 4.6, away from case 2's consistent start.
 SLIDER_OFFSET = 1e-3
 
 
@@ -63,21 +63,21 @@ def _why_R_removes_multipliers():
 
 
 CHECKS = {
-    "4.1": Check("4.1", _R_off_manifold, entries(1e-9, 1e-12),
+    "4.5": Check("4.5", _R_off_manifold, entries(1e-9, 1e-12),
                  "E goes in the row of phi; the rows of psi and x_C hold minus the solution of "
                  "Phi_z X = Phi_q. Did you keep the sign?",
                  lambda expected: -np.asarray(expected)),
-    "4.2": Check("4.2", _perturbed_accelerations, numeric(1e-8, 1e-10),
+    "4.6": Check("4.6", _perturbed_accelerations, numeric(1e-8, 1e-10),
                  "the lower rows of p are Baumgarte's p2~ of (17), with alpha = beta = 5 and the nonzero "
                  "f and Phi_s s' of this state; the upper rows are R^T p1.", scaled()),
-    "4.3": Check("4.3", _det_Phi_z_with_psi_independent, symbolic(),
+    "4.7": Check("4.7", _det_Phi_z_with_psi_independent, symbolic(),
                  "Phi_z now holds the columns of phi and x_C, in that order; differentiate (27) and (28) "
                  "with respect to each.",
                  lambda expected: -expected),
-    "4.4": Check("4.4", _nfev_ratio, numeric(1e-2, 0),
+    "4.8": Check("4.8", _nfev_ratio, numeric(1e-2, 0),
                  "divide the orthogonal run's nfev by the Baumgarte run's, both from the same state with the "
                  "same method and tolerances.", scaled()),
-    "4.5": Check("4.5", _why_R_removes_multipliers, choice,
+    "4.9": Check("4.9", _why_R_removes_multipliers, choice,
                  "in (22), lambda enters only through the term Phi_s^T lambda: think about which directions "
                  "that term can point in, and what R^T does to those directions.",
                  another_letter()),

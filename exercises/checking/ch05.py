@@ -19,7 +19,7 @@ from closedloop.studies.readings import reading_outcomes
 
 from . import Check, choice, make_check, numeric, scaled, symbolic
 
-#: The time [s] and the crank's state (phi, phi') of exercise 5.3.
+#: The time [s] and the crank's state (phi, phi') of exercise 5.6.
 FORCE_TIME, FORCE_ANGLE, FORCE_SPEED = 0.25, 5.0, 1.0
 
 
@@ -66,26 +66,26 @@ def _initial_velocities():
 
 
 CHECKS = {
-    "5.1": Check("5.1", lambda: slider_crank_model().kinetic_energy, symbolic(),
+    "5.4": Check("5.4", lambda: slider_crank_model().kinetic_energy, symbolic(),
                  "each body contributes m v_C^2 / 2 of its centre of mass plus I omega^2 / 2 about that centre; "
                  "the rod's centre is a2 from the crank pin A, towards the slider.",
                  _without_rod_spin),
-    "5.2": Check("5.2", _potential_at_quarter_turn, numeric(1e-6, 1e-9),
+    "5.5": Check("5.5", _potential_at_quarter_turn, numeric(1e-6, 1e-9),
                  "Pi is the sum of m g y over the centres of mass; at phi = pi/2, (28) gives sin psi.",
                  scaled()),
-    "5.3": Check("5.3", _applied_forces, numeric(1e-6, 1e-9),
+    "5.6": Check("5.6", _applied_forces, numeric(1e-6, 1e-9),
                  "read Q_k off the virtual work as the coefficient of delta q_k; in the reproducing reading "
                  "the gas force must take energy out while the slider moves outward.",
                  lambda expected: np.asarray(expected) * np.array([1.0, 1.0, -1.0])),
-    "5.4": Check("5.4", _gas_work_last_half_metre, numeric(1e-6, 1e-9),
+    "5.7": Check("5.7", _gas_work_last_half_metre, numeric(1e-6, 1e-9),
                  "work is the integral of the generalised force on x_C, as it enters (31) in the reproducing "
                  "reading, over the displacement from 5 m to 5.5 m; integrate the constant and the periodic "
                  "part of (5.e) separately.",
                  scaled()),
-    "5.5": Check("5.5", _initial_velocities, numeric(1e-6, 1e-9),
+    "5.8": Check("5.8", _initial_velocities, numeric(1e-6, 1e-9),
                  "differentiate (27)-(28) in time and put phi = pi/2, sin psi = l1/l2 in the result.",
                  scaled()),
-    "5.6": Check("5.6", _reproducing_reading, choice,
+    "5.9": Check("5.9", _reproducing_reading, choice,
                  "which reading lets case 1 swing and case 2 turn full circle, with the slider never stuck?",
                  lambda expected: next(name for name in READINGS if name != expected)),
 }

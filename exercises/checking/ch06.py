@@ -52,19 +52,19 @@ def _without_gas():
 
 
 CHECKS = {
-    "6.1": Check("6.1", _new_start, choice,
+    "6.4": Check("6.4", _new_start, choice,
                  "simulate 20 s and ask classify_motion; compare the start with cases 1 and 4.",
                  lambda expected: "full rotation" if expected == "oscillation" else "oscillation"),
-    "6.2": Check("6.2", _case_3_excursion, numeric(1e-3, 1e-6),
+    "6.5": Check("6.5", _case_3_excursion, numeric(1e-3, 1e-6),
                  "take the largest |phi - phi0| over the whole run, in radians, from the unwrapped phi "
                  "that simulate returns.", scaled()),
-    "6.3": Check("6.3", _case_3_sticks_at, numeric(0, 0.05),
+    "6.6": Check("6.6", _case_3_sticks_at, numeric(0, 0.05),
                  "run 40 s with formulation=Minimal(); the result's sticking_intervals holds (start, end) "
                  "pairs.", scaled()),
-    "6.4": Check("6.4", _matching_readings, numeric(0, 0),
+    "6.7": Check("6.7", _matching_readings, numeric(0, 0),
                  "a reading counts only if all four of its cases agree with CASES[n].finding.",
                  lambda expected: expected + 1),
-    "6.5": Check("6.5", _without_gas, choice,
+    "6.8": Check("6.8", _without_gas, choice,
                  "with gas=False only gravity and the drive torque act; compare the largest phi of the "
                  "first and the last swings.", another_letter()),
 }

@@ -12,7 +12,7 @@ from closedloop.slider_crank import (CASES, initial_state, slider_crank_model,
 
 from . import Check, another_letter, choice, make_check, numeric, scaled, symbolic
 
-#: The data of the four-bar exercises 7.4 to 7.6.
+#: The data of the four-bar exercises 7.7 to 7.9.
 FOUR_BAR_DATA = {"l0": 4.0, "l1": 1.0, "l2": 3.5, "l3": 3.0, "m1": 1.0, "m2": 3.0, "m3": 2.5, "g": 9.81}
 FOUR_BAR_START = dict(q0=[math.pi / 2], qd0=[2.0], z_guess=[0.5, 2.0])
 
@@ -99,27 +99,27 @@ def _gravity_over_a_turn():
 
 
 CHECKS = {
-    "7.1": Check("7.1", _amplitude, symbolic(),
+    "7.4": Check("7.4", _amplitude, symbolic(),
                  "replace sin(psi) with (28) on the branch, then divide by sin(phi); keep the symbols "
                  "l1, a1, m1, l2, a2, m2, g of slider_crank_model().parameters, not numbers.",
                  _amplitude_without_rod),
-    "7.2": Check("7.2", _first_turn_time, numeric(1e-3, 0),
+    "7.5": Check("7.5", _first_turn_time, numeric(1e-3, 0),
                  "the first full turn is the first time phi - phi0 reaches 2 pi; on a fine output grid, "
                  "interpolate t linearly between the two outputs that bracket it.", scaled()),
-    "7.3": Check("7.3", _case_2_energy_change, numeric(1e-2, 0),
+    "7.6": Check("7.6", _case_2_energy_change, numeric(1e-2, 0),
                  "T + Pi at t = 20 s minus T + Pi at t = 0, with system.energy, from a run with the "
                  "chapter's settings (DOP853 at 1e-9); a loss is negative.", scaled()),
-    "7.4": Check("7.4", _four_bar_energy, numeric(1e-6, 0),
+    "7.7": Check("7.7", _four_bar_energy, numeric(1e-6, 0),
                  "each bar's T is (m/2)|v_centre|^2 + (m l^2/24) theta'^2; Pi is measured from the "
                  "pivots' height; start Newton from theta2 = 0.5, theta3 = 2.", scaled()),
-    "7.5": Check("7.5", _four_bar_crank_angle, numeric(1e-3, 0),
+    "7.8": Check("7.8", _four_bar_crank_angle, numeric(1e-3, 0),
                  "give theta1 as simulate returns it (unwrapped, not reduced to [0, 2 pi)), at t = 5 s "
                  "exactly, from a run with a tolerance of 1e-8 or tighter.", scaled()),
-    "7.6": Check("7.6", _four_bar_residual, _same_decade,
+    "7.9": Check("7.9", _four_bar_residual, _same_decade,
                  "the result of simulate holds the residual of (32) at every output; take its largest "
                  "value over the whole 10 s run with Baumgarte(5, 5), DOP853 and rtol = atol = 1e-9.",
                  lambda expected: 1e3 * expected),
-    "7.7": Check("7.7", _gravity_over_a_turn, choice,
+    "7.10": Check("7.10", _gravity_over_a_turn, choice,
                  "gravity's work is minus the change of Pi, and Pi depends on the configuration alone.",
                  another_letter()),
 }

@@ -11,9 +11,9 @@ from . import Check, another_letter, choice, make_check, numeric, scaled, symbol
 
 #: The case of every run here: the study's main case.
 CASE = 2
-#: The spoiling of case 2's configuration in exercise 8.4: [phi, psi, x_C].
+#: The spoiling of case 2's configuration in exercise 8.8: [phi, psi, x_C].
 SPOIL = (0.0, 1e-2, 1e-2)
-#: The drift that exercise 8.5 allows [m], and the ladder of tolerances it tries.
+#: The drift that exercise 8.9 allows [m], and the ladder of tolerances it tries.
 DRIFT_LIMIT = 1e-6
 LADDER = tuple(10.0**-k for k in range(3, 11))
 #: The study's common output grid (8.d).
@@ -75,27 +75,27 @@ def _output_cost():
 
 
 CHECKS = {
-    "8.1": Check("8.1", _curves_in_main_case, numeric(0, 0),
+    "8.5": Check("8.5", _curves_in_main_case, numeric(0, 0),
                  "for each entry of study_entries(), count the methods of DEFAULT_SETTINGS.methods_of(2) "
                  "that are also in the entry's own methods, and add up.",
                  lambda expected: expected + 4),
-    "8.2": Check("8.2", _error_at_ten_seconds, numeric(2e-2, 0),
+    "8.6": Check("8.6", _error_at_ten_seconds, numeric(2e-2, 0),
                  "y has six rows, s on top of sd; take the largest absolute difference from the reference "
                  "at t = 10 s, with both runs going to 20 s and reporting at 10 and 20 s.",
                  scaled()),
-    "8.3": Check("8.3", _gram_determinant, symbolic(),
+    "8.7": Check("8.7", _gram_determinant, symbolic(),
                  "Phi_s has three columns, so three 2 x 2 minors; square each one and add them. Check "
                  "the signs of the entries of Phi_s by differentiating (27) and (28).",
                  _without_a_minor),
-    "8.4": Check("8.4", _projected_positions, numeric(1e-9, 1e-12),
+    "8.8": Check("8.8", _projected_positions, numeric(1e-9, 1e-12),
                  "subtract Phi_s^T (Phi_s Phi_s^T)^{-1} f(s) from all three coordinates at every iteration, "
                  "with Phi_s and f at the current s; start from the spoiled s, not the consistent one.",
                  scaled()),
-    "8.5": Check("8.5", _loosest_tolerance, numeric(1e-6, 0),
+    "8.9": Check("8.9", _loosest_tolerance, numeric(1e-6, 0),
                  "run every tolerance of the ladder with t_eval on the 2001-point grid, keep those whose "
                  "max_constraint_error is at most 1e-6, and give the largest of them.",
                  lambda expected: 10.0 * expected),
-    "8.6": Check("8.6", _output_cost, choice,
+    "8.10": Check("8.10", _output_cost, choice,
                  "compare the two runs' step_sizes with np.array_equal, then their nfev.",
                  another_letter()),
 }

@@ -11,12 +11,12 @@ from closedloop.slider_crank import CASES, SliderCrankParameters, initial_state,
 
 from . import Check, another_letter, choice, make_check, numeric, symbolic
 
-#: alpha = beta of exercise 9.2 [1/s]: critical damping.
+#: alpha = beta of exercise 9.5 [1/s]: critical damping.
 CRITICAL_GAIN = 1000.0
-#: Exercise 9.3: the length of the run [s] and its output grid.
+#: Exercise 9.6: the length of the run [s] and its output grid.
 WORK_END = 5.0
 WORK_TIMES = np.linspace(0.0, WORK_END, 5001)
-#: The crank angle and speed of the configuration in exercise 9.4.
+#: The crank angle and speed of the configuration in exercise 9.7.
 TEST_STATE = (2.0, 3.0)
 
 
@@ -80,23 +80,23 @@ def _heavy_crank_verdict():
 
 
 CHECKS = {
-    "9.1": Check("9.1", _stability_function, symbolic(),
+    "9.4": Check("9.4", _stability_function, symbolic(),
                  "substitute each stage into the next, divide the new y by y, and replace mu by z / Delta_t; "
                  "the result is a polynomial in z alone.",
                  _without_fourth_order),
-    "9.2": Check("9.2", _critical_step, numeric(1e-4, 0),
+    "9.5": Check("9.5", _critical_step, numeric(1e-4, 0),
                  "with alpha = beta the two roots of (9.a) coincide and are real; where does RK4's "
                  "stability region meet the negative real axis?",
                  lambda expected: 0.5 * expected),
-    "9.3": Check("9.3", _work, numeric(1e-4, 0),
+    "9.6": Check("9.6", _work, numeric(1e-4, 0),
                  "the power is M(t) phi' + F_x x_C' at each output time (mind force_sign, and that "
                  "gas_force takes x_C and x_C'); integrate it over the 5001 times from 0 to 5 s.",
                  lambda expected: -expected),
-    "9.4": Check("9.4", _scaled_condition, numeric(1e-6, 0),
+    "9.7": Check("9.7", _scaled_condition, numeric(1e-6, 0),
                  "scale rows and columns alike, D K D with D = diag(d); the constraint scales use the "
                  "columns of Phi_s already multiplied by the coordinate scales.",
                  lambda expected: 1e3 * expected),
-    "9.5": Check("9.5", _heavy_crank_verdict, choice,
+    "9.8": Check("9.8", _heavy_crank_verdict, choice,
                  "compare the largest and smallest m(phi) of the heavy crank, and the two runs' n_steps.",
                  another_letter()),
 }

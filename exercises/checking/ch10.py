@@ -13,11 +13,11 @@ from . import Check, choice, make_check, numeric, scaled
 
 #: The rocking crank of the chapter: l2 = 1.5 m < l1 = 2 m, centre of mass mid-rod.
 ROCKING = SliderCrankParameters(l2=1.5, a2=0.75, full_rotation=False)
-#: Exercise 10.2: the rod ratio l2/l1 and the slider's displacement off the constraint [m].
+#: Exercise 10.6: the rod ratio l2/l1 and the slider's displacement off the constraint [m].
 NEAR_RATIO, SLIDER_SHIFT = 1.001, 1e-4
-#: Exercise 10.4: the rod ratio of configuration (iii), and the thresholds that define the answer.
+#: Exercise 10.8: the rod ratio of configuration (iii), and the thresholds that define the answer.
 CLOSE_RATIO, SINGULAR_PARTITION, NEAR_RANK_LOSS = 1.00001, 1e8, 100.0
-#: Exercise 10.5: the start at rest with the crank pin up, and the horizon [s].
+#: Exercise 10.9: the start at rest with the crank pin up, and the horizon [s].
 REST_START, STICK_HORIZON = (math.pi / 2, 0.0), 20.0
 
 
@@ -107,25 +107,25 @@ def _sticking_time():
 
 
 CHECKS = {
-    "10.1": Check("10.1", _curvature, same_function_of_lengths(),
+    "10.5": Check("10.5", _curvature, same_function_of_lengths(),
                   "differentiate d psi/d phi = l1 cos(phi) / (l2 cos(psi)) once more, remembering that psi "
                   "depends on phi; at phi = pi/2 one term vanishes, and cos(psi) < 0 on the paper's branch. "
                   "Use only the symbols l1 and l2.",
                   lambda expected: -expected),
-    "10.2": Check("10.2", _kantorovich, numeric(1e-6, 0.0),
+    "10.6": Check("10.6", _kantorovich, numeric(1e-6, 0.0),
                   "use the singular values of Phi_s at the spoiled state (not at the consistent one), "
                   "|f| as the 2-norm of both constraints, and square sigma_min.",
                   scaled()),
-    "10.3": Check("10.3", _dead_position_accelerations, numeric(1e-6, 1e-9),
+    "10.7": Check("10.7", _dead_position_accelerations, numeric(1e-6, 1e-9),
                   "N is the last right singular vector of Phi_s (V^T's last row); stack N^T M over Phi_s, "
                   "and N^T p1 over p2~ of (17), which at a consistent state is -Phi_s' s'. Give s'' in the "
                   "order [phi, psi, x_C].",
                   scaled()),
-    "10.4": Check("10.4", _classification, choice,
+    "10.8": Check("10.8", _classification, choice,
                   "compute cond(Phi_s) and cond(Phi_z) at each configuration; Phi_z is the psi and x_C "
                   "columns. Near a bifurcation both are large; at a dead position only Phi_z is.",
                   lambda expected: expected[::-1]),
-    "10.5": Check("10.5", _sticking_time, numeric(1e-5, 0.0),
+    "10.9": Check("10.9", _sticking_time, numeric(1e-5, 0.0),
                   "use switching='events' (the default) with a tolerance of 1e-6 or tighter, and give the "
                   "start of the first interval in result.sticking_intervals, in seconds.",
                   scaled()),

@@ -11,9 +11,9 @@ from closedloop.slider_crank import CASES, TORQUE_RIPPLE, initial_state, slider_
 
 from . import Check, another_letter, choice, make_check, numeric
 
-#: Exercise 11.1: where the printed gas law changes formula [m].
+#: Exercise 11.4: where the printed gas law changes formula [m].
 LAW_CHANGE = 5.0
-#: Exercise 11.3: the tolerances tried, and the bound on the balance's residual [J].
+#: Exercise 11.6: the tolerances tried, and the bound on the balance's residual [J].
 TOLERANCES, RESIDUAL_BOUND = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8), 1e-3
 
 
@@ -82,26 +82,26 @@ def _power_of_ten_off(expected):
 
 
 CHECKS = {
-    "11.1": Check("11.1", _work_to_law_change, numeric(1e-6, 0.0),
+    "11.4": Check("11.4", _work_to_law_change, numeric(1e-6, 0.0),
                   "integrate F = -a/(6 - x_C) + b from the inner dead centre x_C = 1.5 m to 5 m; the "
                   "logarithm's argument is the ratio of the distances 6 - x_C at the two ends. The gas "
                   "takes energy out, so the work is negative.",
                   lambda expected: -expected),
-    "11.2": Check("11.2", _gas_work_case_3, numeric(1e-5, 0.0),
+    "11.5": Check("11.5", _gas_work_case_3, numeric(1e-5, 0.0),
                   "add U(x_C(t_k+1)) - U(x_C(t_k)) only over intervals where the slider moves out; where "
                   "x_C' changes sign, stop or start at the turning point. Use the run of case 3 at "
                   "rtol = 1e-10 over 20 s.",
                   lambda expected: expected * 1.5),
-    "11.3": Check("11.3", _loosest_tolerance, numeric(1e-6, 0.0),
+    "11.6": Check("11.6", _loosest_tolerance, numeric(1e-6, 0.0),
                   "run case 4 at each tolerance of the list with Baumgarte(5, 5), DOP853 and 4001 output "
                   "points, take max |energy_balance_error| of each, and give the largest rtol whose "
                   "residual stays below 1e-3 J.",
                   _power_of_ten_off),
-    "11.4": Check("11.4", _first_top_kinetic_energy, numeric(1e-4, 0.0),
+    "11.7": Check("11.7", _first_top_kinetic_energy, numeric(1e-4, 0.0),
                   "the first top of V after phi0 = pi lies just before 5 pi/2, where V' = Pi' - M_bar = 0; "
                   "interpolate T of the run (system.kinetic_and_potential_energy) there, against phi.",
                   lambda expected: expected * 1.1),
-    "11.5": Check("11.5", _later_margins, choice,
+    "11.8": Check("11.8", _later_margins, choice,
                   "compare T at the second and third tops with T at the first, and compare the changes "
                   "with the ripple's work per turn.",
                   another_letter()),

@@ -11,7 +11,7 @@ from closedloop.slider_crank import CASES, initial_state, slider_crank_model, sl
 
 from . import Check, another_letter, choice, make_check, numeric, scaled, symbolic
 
-#: phi0 [rad] and phi0' [rad/s] of the state in exercise 12.2: the slider moving outward.
+#: phi0 [rad] and phi0' [rad/s] of the state in exercise 12.6: the slider moving outward.
 OUTWARD = (4.0, 1.0)
 
 
@@ -66,21 +66,21 @@ def _gas_raises_the_bound():
     return "b" if speeds[first - 1] > 1.01 * bound else "c"
 
 CHECKS = {
-    "12.1": Check("12.1", _case_codes, numeric(0, 0),
+    "12.5": Check("12.5", _case_codes, numeric(0, 0),
                   "pass the four angles as one array and the four speeds as another, in the order of the "
                   "cases; the result's codes hold one outcome per start.",
                   lambda expected: 1 - np.asarray(expected)),
-    "12.2": Check("12.2", _minimal_accelerations, numeric(1e-8, 1e-10),
+    "12.6": Check("12.6", _minimal_accelerations, numeric(1e-8, 1e-10),
                   "c is zero in the row of phi and solves Phi_z c_z = -Phi_s' s' in the other rows; the right "
                   "side of (12.b) is R^T (p1 - M c), and s'' = R phi'' + c.", scaled()),
-    "12.3": Check("12.3", _generalized_mass, symbolic(),
+    "12.7": Check("12.7", _generalized_mass, symbolic(),
                   "at phi = psi = pi the derivative of (28) gives psi' in terms of phi', and the derivative of "
                   "(27) gives the slider's speed; put both into T and mind the sign of the coupling term.",
                   _flip_coupling),
-    "12.4": Check("12.4", _speed_bound, numeric(1e-6, 0),
+    "12.8": Check("12.8", _speed_bound, numeric(1e-6, 0),
                   "set (1/2) m(pi) phi'^2 equal to the rise of Pi from phi = pi to phi = pi/2; take both from "
                   "the system without the torque (its masses and lengths are those of Table 1).", scaled()),
-    "12.5": Check("12.5", _gas_raises_the_bound, choice,
+    "12.9": Check("12.9", _gas_raises_the_bound, choice,
                   "find the first of the 21 speeds whose code is 1 and compare it with the bound; which force "
                   "acts while the crank goes from pi to 2 pi?",
                   another_letter()),

@@ -13,10 +13,10 @@ from . import Check, another_letter, choice, make_check, numeric, scaled, symbol
 
 #: The chapter's parallelogram [m], [kg], [m/s^2].
 DATA = {"l0": 3.0, "l1": 1.0, "l2": 3.0, "l3": 1.0, "m1": 1.0, "m2": 2.0, "m3": 1.0, "g": 9.81}
-#: The lengthened base of exercise 13.3 and the shortened crank of exercise 13.5 [m].
+#: The lengthened base of exercise 13.6 and the shortened crank of exercise 13.8 [m].
 ROCKING_BASE = 3.2
 SHORTER_CRANK = 0.9
-#: Exercise 13.4: released from rest at this crank angle, stopped at the second one [rad].
+#: Exercise 13.7: released from rest at this crank angle, stopped at the second one [rad].
 FALL = (0.3, 0.05)
 
 
@@ -99,21 +99,21 @@ def _shorter_crank():
 
 
 CHECKS = {
-    "13.1": Check("13.1", _crossed_assembly, same_angles(),
+    "13.4": Check("13.4", _crossed_assembly, same_angles(),
                   "with the crank upright, A = (0, l1); write |AB| = l2 with B on the rocker's circle about D, "
                   "and keep the solution that is not the parallelogram.",
                   lambda expected: np.asarray(expected) + 0.5),
-    "13.2": Check("13.2", _R_closed_form, symbolic(),
+    "13.5": Check("13.5", _R_closed_form, symbolic(),
                   "the first entry is 1 (theta1 itself); solve Phi_z [theta2', theta3'] = -Phi_q theta1' and "
                   "keep the rows in the order theta1, theta2, theta3.",
                   _swap_rows),
-    "13.3": Check("13.3", _dead_position_accelerations, numeric(1e-6, 1e-8),
+    "13.6": Check("13.6", _dead_position_accelerations, numeric(1e-6, 1e-8),
                   "B lies on the segment AD at distance l2 from A, so theta2 is the direction of D - A and "
                   "theta3 = theta2 + pi; at rest p2~ of (17) keeps only its -beta^2 f term.", scaled()),
-    "13.4": Check("13.4", _fall_time, numeric(1e-5, 0),
+    "13.7": Check("13.7", _fall_time, numeric(1e-5, 0),
                   "stop_when must cross zero upward as the crank falls: its value should grow as theta1 "
                   "decreases. The run starts from rest on the parallelogram branch.", scaled()),
-    "13.5": Check("13.5", _shorter_crank, choice,
+    "13.8": Check("13.8", _shorter_crank, choice,
                   "coupler and rocker line up only where |AD| = l2 + l3 or l2 - l3; which values does |AD| "
                   "take as the crank turns?",
                   another_letter()),

@@ -128,7 +128,8 @@ def rk4(system, formulation, s0, sd0, step, n_steps, t_start=0.0, divergence=1e6
     ----------
     system : System
         Without switched forces (this scheme does not stop at switches).
-    formulation : Augmented, Baumgarte, Orthogonal or Minimal
+    formulation : Formulation
+        Any of the library's (:func:`closedloop.formulations.formulation_from_name`).
     s0, sd0 : array_like, shape (n,)
     step : float
         dt > 0 [s].
@@ -159,8 +160,12 @@ def rk4(system, formulation, s0, sd0, step, n_steps, t_start=0.0, divergence=1e6
     unpack = formulation.unpacker(system)
     unpack.seed(s0)
     mode = system.force.mode_at(t_start, s0, sd0) if system.force is not None else ()
-    rhs = formulation.make_rhs(system, mode, unpack)
-    y = formulation.pack(system, s0, sd0)
+    formulation_rhs = formulation.make_rhs(system, mode, unpack)
+
+    def rhs(t, y):                      # ClosedForm's generated code returns a list (ode.dop853 takes it)
+        return np.asarray(formulation_rhs(t, y), dtype=float)
+
+    y = np.asarray(formulation.pack(system, s0, sd0), dtype=float)
     limit = divergence * max(np.linalg.norm(system.constraints(s0)), 1e-12)
     times, states, errors = [t_start], [(s0, sd0)], [np.linalg.norm(system.constraints(s0))]
     diverged_at = None

@@ -100,6 +100,10 @@ def project_state(system, s, sd, t=None, tolerance=NEWTON_TOLERANCE, max_iterati
         sd = np.asarray(sd, dtype=float)
         return s, sd - _minimum_norm(Phi, Phi @ sd, t, s)
     residual = np.linalg.norm(system.constraints(s)) if np.all(np.isfinite(s)) else np.inf
+    if residual <= 1e3 * np.finfo(float).eps * (1.0 + np.max(np.abs(s))):     # close, but not to `tolerance`
+        raise ConvergenceError(
+            f"the projection onto f = 0 stalled at |f| = {residual:.3g}{at_time(t)}, as close as floating "
+            f"point gets here, above the tolerance {tolerance:.3g} (1 + max |s|); give a tolerance >= 1e-13")
     raise ConvergenceError(
         f"the projection onto f = 0 did not converge in {max_iterations} Newton iterations{at_time(t)} "
         f"(|f| = {residual:.3g}): the integrator left the constraint manifold too far; "

@@ -1,23 +1,42 @@
-"""Drawings and light HTML animations of the mechanisms: the slider-crank and the four-bar.
+"""Labelled drawings and HTML animations of the mechanisms: the slider-crank and the four-bar.
 
-The joint positions come from the loop equations, (27)-(28) for the slider-crank; the
-animations share one offline player.  matplotlib is imported inside the functions only.
+Every position comes from the model: the joints of the slider-crank from its coordinates
+``s = [phi, psi, x_C]`` and the loop equations (27)-(28), its centres of mass from the potential
+energy (5.b), and a diagram's state from the library's own assembly (Newton on f = 0).  The
+drawings restore the paper's Fig. 1, whose image did not survive.  One set of drawing functions
+serves the diagrams (every symbol labelled) and the animations (lighter labels), so the two
+cannot differ.  matplotlib is imported inside the functions only.
 """
 
 from __future__ import annotations
 
+import base64
+import io
+import math
 import re
 
 import numpy as np
 
-__all__ = ["slider_crank_points", "draw_slider_crank", "animate_slider_crank", "four_bar_points",
-           "draw_four_bar", "animate_four_bar"]
+__all__ = ["slider_crank_points", "slider_crank_centres", "draw_slider_crank", "slider_crank_diagram",
+           "animate_slider_crank", "four_bar_points", "four_bar_centres", "draw_four_bar",
+           "four_bar_diagram", "animate_four_bar"]
 
+#: Colours of the drawings: links, joints' outline, annotations, forces.
+_LINK, _INK, _NOTE, _FORCE, _GROUND = "C0", "0.15", "0.35", "C3", "0.45"
+
+
+# -- geometry: every point from the model's coordinates ------------------------------------------
 
 def slider_crank_points(s, parameters):
     """Joint positions O, A (crank pin) and C (slider) for a state s = [phi, psi, x_C].
 
     A = l1 (cos phi, sin phi) and C = (x_C, 0); by (27)-(28), C = A - l2 (cos psi, sin psi).
+
+    Parameters
+    ----------
+    s : array_like
+        ``[phi, psi, x_C]`` [rad, rad, m].
+    parameters : SliderCrankParameters
 
     Returns
     -------
@@ -28,52 +47,28 @@ def slider_crank_points(s, parameters):
     return np.array([[0.0, 0.0], [parameters.l1 * np.cos(phi), parameters.l1 * np.sin(phi)], [x, 0.0]])
 
 
-def draw_slider_crank(ax, s, parameters, color="C0", label=None):
-    """Draw the mechanism at state s on the axes ``ax``: crank OA, rod AC, slider C.
+def slider_crank_centres(s, parameters):
+    """Centres of mass C1 of the crank and C2 of the rod, as placed by the potential energy (5.b).
 
-    Returns the list of artists, so that an animation can update them.
-    """
-    points = slider_crank_points(s, parameters)
-    (links,) = ax.plot(points[:, 0], points[:, 1], "-o", color=color, lw=3, ms=6, label=label)
-    (slider,) = ax.plot([points[2, 0]], [0.0], "s", color=color, ms=14, alpha=0.6)
-    return [links, slider]
-
-
-def animate_slider_crank(result, parameters, frames=30, duration=None, title=None):
-    """A light HTML/JavaScript animation of a slider-crank run.
-
-    The run is downsampled to ``frames`` evenly spaced instants, drawn small at
-    a low resolution: about 6 kB a frame, so 30 frames make about 190 kB.
+    ``Pi = m1 g a1 sin phi + m2 g (l1 sin phi - a2 sin psi)``: C1 lies at OC1 = a1 along the
+    crank, and C2 at AC2 = a2 from the crank pin A towards the slider C.
 
     Parameters
     ----------
-    result : SimulationResult
+    s : array_like
+        ``[phi, psi, x_C]``.
     parameters : SliderCrankParameters
-    frames : int
-        Number of frames (downsampled from the run).
-    duration : float, optional
-        Seconds of animation; default real time.
-    title : str, optional
 
     Returns
     -------
-    str
-        HTML to show with ``IPython.display.HTML``.
+    ndarray, shape (2, 2)
+        ``C1 = a1 (cos phi, sin phi)``, ``C2 = A - a2 (cos psi, sin psi)``.
     """
-    reach = parameters.l1 + parameters.l2
 
-    def setup(ax, s):
-        ax.set_xlim(-1.1 * parameters.l1, 1.05 * reach)
-        ax.set_ylim(-1.2 * parameters.l1, 1.2 * parameters.l1)
-        ax.axhline(0.0, color="0.7", lw=1, zorder=0)
-        return draw_slider_crank(ax, s, parameters)
-
-    def move(artists, s):
-        points = slider_crank_points(s, parameters)
-        artists[0].set_data(points[:, 0], points[:, 1])
-        artists[1].set_data([points[2, 0]], [0.0])
-
-    return _animate(result, setup, move, (4.8, 2.4), frames, duration, title)
+    phi, psi = s[0], s[1]
+    crank = np.array([np.cos(phi), np.sin(phi)])
+    rod = np.array([np.cos(psi), np.sin(psi)])                 # from C towards A
+    return np.array([parameters.a1 * crank, parameters.l1 * crank - parameters.a2 * rod])
 
 
 def four_bar_points(s, lengths):
@@ -99,16 +94,498 @@ def four_bar_points(s, lengths):
     return np.array([[0.0, 0.0], a, b, [lengths["l0"], 0.0]])
 
 
-def draw_four_bar(ax, s, lengths, color="C0", label=None):
-    """Draw the four-bar at state s on ``ax``: crank OA, coupler AB, rocker BD. Returns the artists."""
-    points = four_bar_points(s, lengths)
-    (links,) = ax.plot(points[:, 0], points[:, 1], "-o", color=color, lw=3, ms=6, label=label)
-    (ground,) = ax.plot(points[[0, 3], 0], points[[0, 3], 1], "^", color="0.3", ms=10)
-    return [links, ground]
+def four_bar_centres(s, lengths):
+    """Centres of mass C1, C2, C3 of the three uniform bars: the midpoints of OA, AB and DB.
+
+    Parameters
+    ----------
+    s : array_like
+        ``[theta1, theta2, theta3]``.
+    lengths : mapping
+        Values of ``l0, l1, l2, l3`` [m].
+
+    Returns
+    -------
+    ndarray, shape (3, 2)
+    """
+
+    theta3 = s[2]
+    o, a, b, d = four_bar_points(s, lengths)
+    rocker_tip = d + lengths["l3"] * np.array([np.cos(theta3), np.sin(theta3)])   # = B on the loop
+    return np.array([(o + a) / 2, (a + b) / 2, (d + rocker_tip) / 2])
 
 
-def animate_four_bar(result, lengths, frames=30, duration=None, title=None):
-    """A light HTML/JavaScript animation of a four-bar run, like :func:`animate_slider_crank`.
+# -- drawing pieces ----------------------------------------------------------------------------
+
+def _unit(angle):
+    return np.array([math.cos(angle), math.sin(angle)])
+
+
+def _pivot(ax, point, size, zorder=1):
+    """A fixed pivot: a triangle on a hatched ground line below ``point``."""
+    from matplotlib.patches import Polygon, Rectangle
+
+    x, y = point
+    artists = [ax.add_patch(Polygon([[x, y], [x - 0.6 * size, y - size], [x + 0.6 * size, y - size]],
+                                    closed=True, facecolor="white", edgecolor=_GROUND, lw=1.2, zorder=zorder)),
+               ax.add_patch(Rectangle((x - size, y - 1.35 * size), 2 * size, 0.35 * size, facecolor="none",
+                                      edgecolor=_GROUND, hatch="////", lw=0, zorder=zorder))]
+    artists.append(ax.plot([x - size, x + size], [y - size, y - size], color=_GROUND, lw=1.2, zorder=zorder)[0])
+    return artists
+
+
+def _centre_of_mass(ax, point, gid, size=9, zorder=6):
+    """The centre-of-mass symbol, a circle half filled."""
+    return ax.plot([point[0]], [point[1]], marker="o", ms=size, fillstyle="top", markerfacecolor=_INK,
+                   markerfacecoloralt="white", markeredgecolor=_INK, mew=1.0, ls="none", zorder=zorder,
+                   gid=gid)[0]
+
+
+def _joints(ax, points, size, zorder=5):
+    return ax.plot(points[:, 0], points[:, 1], "o", ms=size, markerfacecolor="white", markeredgecolor=_INK,
+                   mew=1.3, ls="none", zorder=zorder)[0]
+
+
+def _label(ax, point, text, offset, fontsize, color=_INK, ha="center"):
+    """``text`` at ``point`` shifted by ``offset`` points."""
+    return ax.annotate(text, xy=tuple(point), xytext=tuple(offset), textcoords="offset points",
+                       ha=ha, va="center", fontsize=fontsize, color=color, zorder=8)
+
+
+def _dimension(ax, start, end, offset, text, fontsize, text_shift=0.0, color=_NOTE, gid=None):
+    """A dimension line parallel to start-end, ``offset`` [m] to its left, with arrows at both ends;
+    ``gid`` names the arrow (whose ``xy`` is the end, ``xyann`` the start)."""
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    along = end - start
+    normal = np.array([-along[1], along[0]]) / np.hypot(*along)
+    p, q = start + offset * normal, end + offset * normal
+    artists = [ax.annotate("", xy=tuple(q), xytext=tuple(p), zorder=3,
+                           arrowprops=dict(arrowstyle="<|-|>", color=color, lw=0.9, shrinkA=0, shrinkB=0,
+                                           mutation_scale=9), gid=gid),
+               ax.plot(*np.transpose([start, p + 0.25 * offset * normal]), color=color, lw=0.6, zorder=3)[0],
+               ax.plot(*np.transpose([end, q + 0.25 * offset * normal]), color=color, lw=0.6, zorder=3)[0]]
+    middle = (p + q) / 2 + np.sign(offset) * (0.22 + text_shift) * normal * max(1.0, fontsize / 12)
+    artists.append(ax.text(*middle, text, ha="center", va="center", fontsize=fontsize, color=color, zorder=8,
+                           bbox=dict(boxstyle="round,pad=0.1", facecolor="white", edgecolor="none", alpha=0.85)))
+    return artists
+
+
+def _angle(ax, centre, start, stop, radius, text, fontsize, color=_NOTE, reference=None, at=0.5):
+    """An angle's arc from ``start`` to ``stop`` [rad] around ``centre`` (the short way, so a negative
+    angle turns clockwise), an arrow at ``stop``, its symbol beyond the arc, and a dashed reference
+    ray along ``start``."""
+    from matplotlib.patches import Arc
+
+    sweep = math.remainder(stop - start, 2 * math.pi)
+    artists = []
+    if reference:
+        end = np.asarray(centre) + reference * _unit(start)
+        artists.append(ax.plot([centre[0], end[0]], [centre[1], end[1]], ls=(0, (4, 3)), color=color, lw=0.8,
+                               zorder=2)[0])
+    if abs(sweep) > 1e-3:
+        low, high = sorted((start, start + sweep))
+        artists.append(ax.add_patch(Arc(tuple(centre), 2 * radius, 2 * radius, theta1=math.degrees(low),
+                                        theta2=math.degrees(high), color=color, lw=1.0, zorder=3)))
+        tip = np.asarray(centre) + radius * _unit(start + sweep)
+        back = np.asarray(centre) + radius * _unit(start + sweep - math.copysign(min(0.3, 0.5 * abs(sweep)), sweep))
+        artists.append(ax.annotate("", xy=tuple(tip), xytext=tuple(back), zorder=3,
+                                   arrowprops=dict(arrowstyle="-|>", color=color, lw=1.0, shrinkA=0, shrinkB=0,
+                                                   mutation_scale=9)))
+    where = np.asarray(centre) + (1.25 * radius + 0.12 * max(1.0, fontsize / 12)) * _unit(start + at * sweep)
+    artists.append(ax.text(*where, text, ha="center", va="center", fontsize=fontsize, color=color, zorder=8))
+    return artists
+
+
+def _arrow(ax, tail, head, text, fontsize, color, text_at="tail", offset=(0, 0), gid=None):
+    """A force's arrow from ``tail`` to ``head``, named ``gid``, and its label."""
+    artists = [ax.annotate("", xy=tuple(head), xytext=tuple(tail), zorder=7, gid=gid,
+                           arrowprops=dict(arrowstyle="-|>", color=color, lw=2.0, shrinkA=0, shrinkB=0,
+                                           mutation_scale=16))]
+    if text:
+        artists.append(_label(ax, tail if text_at == "tail" else head, text, offset, fontsize, color=color))
+    return artists
+
+
+def _scale_bar(ax, origin, length, fontsize):
+    """A bar of ``length`` metres from ``origin``, labelled with its length."""
+    x, y = origin
+    return [ax.plot([x, x + length], [y, y], color=_INK, lw=3, solid_capstyle="butt", zorder=8)[0],
+            ax.text(x + length / 2, y, f"{length:g} m", ha="center", va="bottom", fontsize=fontsize,
+                    color=_INK, zorder=8)]
+
+
+def _sizes(reach):
+    """Joint marker, slider half-size and pivot size, scaled with the mechanism's reach [m]."""
+    return {"half_width": 0.055 * reach, "half_height": 0.04 * reach, "pivot": 0.045 * reach}
+
+
+# -- the slider-crank --------------------------------------------------------------------------
+
+def _slider_crank_frame(ax, parameters, fontsize=12, guide=True):
+    """The still parts: the pivot at O and the slider's guide over its stroke, with the x axis."""
+    from matplotlib.patches import Rectangle
+
+    reach = parameters.l1 + parameters.l2
+    size = _sizes(reach)
+    artists = _pivot(ax, (0.0, 0.0), size["pivot"], zorder=1)
+    if guide:                                            # one rail under the slider, over its stroke
+        low = abs(parameters.l2 - parameters.l1) - 1.3 * size["half_width"]
+        high = reach + 1.3 * size["half_width"]
+        y = -size["half_height"]
+        artists.append(ax.plot([low, high], [y, y], color=_GROUND, lw=1.2, zorder=1)[0])
+        artists.append(ax.add_patch(Rectangle((low, y - 0.5 * size["half_height"]), high - low,
+                                              0.5 * size["half_height"], facecolor="none", edgecolor=_GROUND,
+                                              hatch="////", lw=0, zorder=1)))
+    return artists
+
+
+def draw_slider_crank(ax, s, parameters, color=_LINK, label=None, labels="none", force_sign=None,
+                      fontsize=12):
+    """Draw the slider-crank at state s on the axes ``ax``: crank OA, rod AC and slider C.
+
+    The positions are those of :func:`slider_crank_points` and :func:`slider_crank_centres`, so the
+    drawing follows the model's coordinates (the paper's Fig. 1; section 3, (27)-(28), (5.b)).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    s : array_like
+        ``[phi, psi, x_C]``.
+    parameters : SliderCrankParameters
+    color : color, optional
+        Colour of the links.
+    label : str, optional
+        Legend label of the links.
+    labels : {"none", "light", "full"}, optional
+        ``"light"``: the points O, A, C and the angles phi, psi (for animations); ``"full"``: also
+        C1, C2, l1, l2, a1, a2, x_C, m1, m2, m3, I1, I2, the drive torque M, gravity g and the gas
+        force F.
+    force_sign : {+1, -1}, optional
+        The reading's ``force_sign`` (with ``labels="full"``): the gas force F <= 0 enters the
+        equations as ``force_sign * F`` on x_C, so it pushes the slider along ``-force_sign * x``.
+        Default +1, the reading that reproduces the paper.
+    fontsize : float, optional
+        Size of the labels [pt].
+
+    Returns
+    -------
+    list of matplotlib.artist.Artist
+        Everything drawn, so that an animation can remove it and draw the next state.
+    """
+    from matplotlib.patches import Rectangle
+
+    if labels not in ("none", "light", "full"):
+        raise ValueError(f"labels: must be 'none', 'light' or 'full', got {labels!r}")
+    p = parameters
+    o, a, c = slider_crank_points(s, p)
+    c1, c2 = slider_crank_centres(s, p)
+    phi, psi = float(s[0]), float(s[1])
+    reach = p.l1 + p.l2
+    size = _sizes(reach)
+    w, h = size["half_width"], size["half_height"]
+    artists = [ax.add_patch(Rectangle((c[0] - w, -h), 2 * w, 2 * h, facecolor=color, alpha=0.35, edgecolor=_INK,
+                                      lw=1.2, zorder=4, gid="slider"))]
+    artists.append(ax.plot([o[0], a[0], c[0]], [o[1], a[1], c[1]], "-", color=color, lw=4,
+                           solid_capstyle="round", label=label, zorder=4, gid="links")[0])
+    artists.append(_joints(ax, np.array([o, a, c]), 7))
+    if labels == "none":
+        return artists
+    away = 14 * max(1.0, fontsize / 12)                              # points between a joint and its name
+    outward_a = _unit(math.atan2(a[1] - 0.5 * c[1], a[0] - 0.5 * c[0]))
+    artists.append(_label(ax, o, "$O$", (away, -0.8 * away), fontsize))
+    artists.append(_label(ax, a, "$A$", tuple(away * outward_a), fontsize))
+    artists.append(_label(ax, c, "$C$", (0.5 * away, 1.1 * away), fontsize))
+    note = fontsize * (0.85 if labels == "light" else 1.0)
+    artists += _angle(ax, o, 0.0, phi, 0.22 * p.l1, r"$\varphi$", note)
+    artists += _angle(ax, c, 0.0, psi, 0.12 * p.l2, r"$\psi$", note,
+                      reference=0.14 * p.l2 if labels == "full" else None, at=0.8)
+    if labels == "light":
+        return artists
+
+    # lengths and centres of mass: l1 on the crank's left, a2 and l2 above the rod
+    above = float(np.sign(c[0] - a[0]) or 1.0)
+    artists += _dimension(ax, o, a, 0.2 * p.l1, "$l_1$", fontsize)
+    artists += _dimension(ax, a, c, 0.15 * p.l2 * above, "$l_2$", fontsize)
+    artists += _dimension(ax, a, c2, 0.05 * p.l2 * above, "$a_2$", fontsize, text_shift=-0.05) \
+        if p.a2 > 0 else [_label(ax, a, "$a_2 = 0$", (away, -away), fontsize)]
+    if p.a1 > 0:
+        artists += _dimension(ax, o, c1, -0.2 * p.l1, "$a_1$", fontsize)
+    else:
+        artists.append(_label(ax, o, "$C_1$ at $O$ ($a_1 = 0$)\n$m_1,\\ I_1$", (-1.2 * away, -3.0 * away),
+                              fontsize, ha="right"))
+    artists.append(_centre_of_mass(ax, c1, "C1"))
+    artists.append(_centre_of_mass(ax, c2, "C2"))
+    rod_normal = _unit(psi + math.pi / 2)
+    artists.append(_label(ax, c2, "$C_2$\n$m_2,\\ I_2$", tuple(-2.0 * away * rod_normal * np.sign(rod_normal[1] or 1)),
+                          fontsize))
+    if p.a1 > 0:
+        artists.append(_label(ax, c1, "$C_1$\n$m_1,\\ I_1$", (1.6 * away, -1.6 * away), fontsize))
+    artists.append(_label(ax, c, "$m_3$", (0, -2.3 * away), fontsize))
+    # the slider's coordinate x_C, measured along the guide from O
+    artists += _dimension(ax, o, c, -(2.6 * h + 0.08 * reach), "$x_C$", fontsize, gid="x_C")
+    # the drive torque M on the crank, positive with phi, drawn behind the crank
+    r = 0.2 * p.l1
+    artists.append(ax.annotate("", xy=tuple(r * _unit(phi + 4.0)), xytext=tuple(r * _unit(phi + 2.3)), gid="M",
+                               zorder=7,
+                               arrowprops=dict(arrowstyle="-|>", color=_FORCE, lw=1.6, mutation_scale=12,
+                                               connectionstyle="arc3,rad=0.45", shrinkA=0, shrinkB=0)))
+    artists.append(_label(ax, r * _unit(phi + 2.3), "$M$", (-0.9 * away, 0.2 * away), fontsize, color=_FORCE))
+    # the gas force F on the slider, while the slider moves out
+    direction = -(1 if force_sign is None else int(np.sign(force_sign)))        # -1: towards O
+    edge = c[0] - direction * w                                                  # the face it pushes
+    y = -0.45 * h
+    tail = np.array([edge - direction * 0.14 * reach, y])
+    artists += _arrow(ax, tail, (edge, y), r"$F$ (while $\dot x_C > 0$)", fontsize, _FORCE, text_at="tail",
+                      offset=(-direction * 0.5 * away, 1.5 * away), gid="F")
+    # gravity, down the y axis
+    top = max(a[1], 0.0) + 0.1 * reach
+    corner = np.array([reach + 0.05 * reach, top])
+    artists += _arrow(ax, corner, corner - np.array([0.0, 0.16 * reach]), "$g$", fontsize, _INK, text_at="head",
+                      offset=(away, 0.6 * away), gid="g")
+    # the x axis, along the guide
+    artists.append(_label(ax, (reach + 1.3 * w, -h), "$x$", (0.8 * away, 0), fontsize, color=_NOTE))
+    return artists
+
+
+def _values_text(values, units):
+    """'name = value unit' for each symbol, in the order of ``units``."""
+    names = {"l0": "l_0", "l1": "l_1", "l2": "l_2", "l3": "l_3", "a1": "a_1", "a2": "a_2", "m1": "m_1",
+             "m2": "m_2", "m3": "m_3", "I1": "I_1", "I2": "I_2", "g": "g"}
+    return [f"${names[key]}$ = {values[key]:g} {unit}" for key, unit in units.items()]
+
+
+def slider_crank_diagram(system=None, phi=0.9, fontsize=12, values=True):
+    """The labelled drawing of the slider-crank (the paper's Fig. 1), from the model's data.
+
+    The state is the library's own assembly at crank angle ``phi``
+    (:func:`closedloop.slider_crank.initial_state`: psi and x_C solve (27)-(28) on the paper's
+    branch), the lengths and centres of mass are those of ``system.parameters`` (Table 1), and the
+    gas force points as the system's reading makes it act.  Every symbol of Table 1 and of
+    s = [phi, psi, x_C] is marked: O, A, C, C1, C2, phi, psi, x_C, l1, l2, a1, a2, m1, m2, m3, I1,
+    I2, the drive torque M, gravity g and the gas force F.
+
+    Parameters
+    ----------
+    system : SliderCrankSystem, optional
+        Default: :func:`closedloop.slider_crank.slider_crank_system` (Table 1, the default reading).
+    phi : float, optional
+        Crank angle [rad] to draw.
+    fontsize : float, optional
+        Size of the labels [pt].
+    values : bool, optional
+        Print the values of Table 1 (and g) below the drawing.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    from ..slider_crank import initial_state, slider_crank_system
+
+    system = slider_crank_system() if system is None else system
+    p = system.parameters
+    s = initial_state(system, phi, 0.0).s
+    reach = p.l1 + p.l2
+    fig = Figure(figsize=(8.0, 4.3 if values else 3.6), layout="constrained")
+    ax = fig.add_subplot()
+    _slider_crank_frame(ax, p, fontsize)
+    draw_slider_crank(ax, s, p, labels="full", force_sign=system.reading.force_sign, fontsize=fontsize)
+    ax.set_aspect("equal")
+    ax.set_xlim(-0.45 * reach, 1.2 * reach)
+    low = min(-p.l1 * max(0.0, -math.sin(phi)), -0.24 * reach)
+    ax.set_ylim(low - 0.04 * reach, max(p.l1 * math.sin(phi), 0.0) + 0.12 * reach)
+    ax.set_axis_off()
+    if values:
+        units = {"l1": "m", "a1": "m", "m1": "kg", "I1": "kg m²", "l2": "m", "a2": "m", "m2": "kg",
+                 "I2": "kg m²", "m3": "kg", "g": "m/s²"}
+        items = _values_text(p.as_dict(), units)
+        fig.text(0.5, 0.01, "crank: " + ", ".join(items[:4]) + "\nrod: " + ", ".join(items[4:8])
+                 + "\nslider: " + items[8] + ";  " + items[9], ha="center", va="bottom", fontsize=fontsize * 0.85,
+                 color=_INK, linespacing=1.5)
+        fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))
+    return fig
+
+
+def animate_slider_crank(result, parameters, fps=15, speed=None, title=None, frames=None, dpi=90,
+                         alt=None):
+    """A smooth offline HTML animation of a slider-crank run, drawn by :func:`draw_slider_crank`.
+
+    Each frame draws the mechanism at one instant with light labels (O, A, C, phi, psi), the
+    time, the title and a 1 m scale bar.  The frames are small palette PNGs in matplotlib's
+    JavaScript player (no network request: see :func:`_offline_player`).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A slider-crank run; its output times should be dense (the frames take the nearest ones).
+    parameters : SliderCrankParameters
+    fps : float, optional
+        Frames per second of playback.
+    speed : float, optional
+        Seconds of motion per second of playback; default: see :func:`playback` (20 s of motion
+        play at 2x real time).  Shown on every frame when it is not 1.
+    title : str, optional
+        Drawn on every frame (e.g. the case).
+    frames : int, optional
+        Number of frames; default ``fps`` x the playback time.  Overrides ``speed``.
+    dpi : float, optional
+        Resolution of the frames.
+    alt : str, optional
+        Alternative text of the animation's image (default: what it shows).
+
+    Returns
+    -------
+    str
+        HTML to show with ``IPython.display.HTML``.
+    """
+    p = parameters
+    reach = p.l1 + p.l2
+
+    def setup(ax):
+        ax.set_xlim(-p.l1 - 0.1 * reach, reach + 0.12 * reach)
+        ax.set_ylim(-p.l1 - 0.08 * reach, p.l1 + 0.08 * reach)
+        _slider_crank_frame(ax, p)
+        return _scale_bar(ax, (-p.l1 - 0.05 * reach, -p.l1 - 0.03 * reach), 1.0, 10)
+
+    def draw(ax, s):
+        return draw_slider_crank(ax, s, p, labels="light", fontsize=11)
+
+    what = alt or (f"Animation of the slider-crank{f' ({title})' if title else ''}: crank OA, rod AC and "
+                   "slider C moving along their run, with the time, the title and a 1 m scale bar on each frame.")
+    return _animate(result, setup, draw, (6.4, 3.6), fps, speed, frames, title, dpi, what)
+
+
+# -- the four-bar ------------------------------------------------------------------------------
+
+def _four_bar_frame(ax, lengths, reach):
+    size = _sizes(reach)
+    return _pivot(ax, (0.0, 0.0), size["pivot"]) + _pivot(ax, (lengths["l0"], 0.0), size["pivot"])
+
+
+def draw_four_bar(ax, s, lengths, color=_LINK, label=None, labels="none", fontsize=12):
+    """Draw the four-bar at state s on ``ax``: crank OA, coupler AB, rocker DB, pivots O and D.
+
+    Positions from :func:`four_bar_points` and :func:`four_bar_centres` (the model of
+    :func:`closedloop.four_bar.four_bar_model`, constraint (13.a)).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    s : array_like
+        ``[theta1, theta2, theta3]``.
+    lengths : mapping
+        Values of ``l0, l1, l2, l3`` [m] (and, for ``labels="full"``, nothing more is needed).
+    color : color, optional
+    label : str, optional
+        Legend label of the links.
+    labels : {"none", "light", "full"}, optional
+        ``"light"``: O, A, B, D and theta1; ``"full"``: also theta2, theta3, l0..l3, the centres
+        of mass C1..C3 with m1..m3, and gravity g.
+    fontsize : float, optional
+
+    Returns
+    -------
+    list of matplotlib.artist.Artist
+    """
+    if labels not in ("none", "light", "full"):
+        raise ValueError(f"labels: must be 'none', 'light' or 'full', got {labels!r}")
+    o, a, b, d = four_bar_points(s, lengths)
+    theta1, theta2, theta3 = (float(v) for v in s[:3])
+    l0, l1, l2, l3 = (lengths[k] for k in ("l0", "l1", "l2", "l3"))
+    reach = l0 + max(l1, l3)
+    artists = [ax.plot([o[0], a[0], b[0], d[0]], [o[1], a[1], b[1], d[1]], "-", color=color, lw=4,
+                       solid_capstyle="round", label=label, zorder=4, gid="links")[0]]
+    artists.append(_joints(ax, np.array([o, a, b, d]), 7))
+    if labels == "none":
+        return artists
+    away = 14 * max(1.0, fontsize / 12)
+    middle = (o + d) / 2 + np.array([0.0, 0.25 * max(l1, l3)])
+    for point, name in ((a, "$A$"), (b, "$B$")):
+        out = point - middle
+        artists.append(_label(ax, point, name, tuple(away * out / (np.hypot(*out) or 1.0)), fontsize))
+    artists.append(_label(ax, o, "$O$", (away, -0.8 * away), fontsize))
+    artists.append(_label(ax, d, "$D$", (-away, -0.8 * away), fontsize))
+    note = fontsize * (0.85 if labels == "light" else 1.0)
+    artists += _angle(ax, o, 0.0, theta1, 0.25 * l1, r"$\theta_1$", note)
+    if labels == "light":
+        return artists
+    artists += _angle(ax, d, 0.0, theta3, 0.25 * l3, r"$\theta_3$", fontsize, reference=0.6 * l3)
+    if abs(math.remainder(theta2, 2 * math.pi)) > 0.05:
+        artists += _angle(ax, a, 0.0, theta2, 0.15 * l2, r"$\theta_2$", fontsize, reference=0.3 * l2)
+    else:                                                    # the coupler lies along the x axis
+        artists += _angle(ax, a, 0.0, 0.0, 0.12 * l2, r"$\theta_2 = 0$", fontsize * 0.9, reference=0.3 * l2)
+        artists[-1].set_position(tuple(a + np.array([0.2 * l2, -0.09 * l2])))
+    artists += _dimension(ax, o, d, -0.12 * reach, "$l_0$", fontsize)
+    artists += _dimension(ax, o, a, 0.22 * l1, "$l_1$", fontsize)
+    artists += _dimension(ax, a, b, 0.1 * l2 * (1 if math.cos(theta2) >= 0 else -1), "$l_2$", fontsize)
+    artists += _dimension(ax, d, b, -0.3 * l3 * (1 if math.cos(theta3) >= 0 else -1), "$l_3$", fontsize)
+    for k, centre in enumerate(four_bar_centres(s, lengths), start=1):
+        artists.append(_centre_of_mass(ax, centre, f"C{k}"))
+        side = {1: 1, 2: 1, 3: -1}[k]                       # towards the inside of the loop
+        artists.append(_label(ax, centre, f"$C_{k}$, $m_{k}$", (side * 2.6 * away, {1: 0.6, 2: -0.9, 3: 0.6}[k] * away),
+                              fontsize))
+    corner = np.array([max(b[0], l0) + 0.2 * reach, max(a[1], b[1], 0.0)])
+    artists += _arrow(ax, corner, corner - np.array([0.0, 0.12 * reach]), "$g$", fontsize, _INK, text_at="head",
+                      offset=(away, 0.6 * away), gid="g")
+    return artists
+
+
+def four_bar_diagram(system, theta1=1.1, z_guess=None, fontsize=12, values=True):
+    """The labelled drawing of the four-bar of :func:`closedloop.four_bar.four_bar_model`.
+
+    The state is the library's assembly at crank angle ``theta1``
+    (:func:`closedloop.consistent_initial_state`, Newton on (13.a)); the lengths and masses are
+    those of ``system``.  Marked: O, A, B, D, theta1, theta2, theta3, l0..l3, the centres of mass
+    C1..C3 with the masses m1..m3, and gravity g.
+
+    Parameters
+    ----------
+    system : System
+        A four-bar (``System(four_bar_model(), values)``).
+    theta1 : float, optional
+        Crank angle [rad].
+    z_guess : array_like, optional
+        Starting guess of ``[theta2, theta3]``, which picks the assembly branch; default
+        ``[0, theta1]`` (the open branch, the parallelogram's).
+    fontsize : float, optional
+    values : bool, optional
+        Print the lengths, masses and g below the drawing.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    from ..four_bar import parameter_values
+    from ..kinematics import consistent_initial_state
+
+    values_ = parameter_values(system)
+    z_guess = [0.0, theta1] if z_guess is None else z_guess
+    s = consistent_initial_state(system, [theta1], [0.0], z_guess).s
+    l0, l1, l3 = values_["l0"], values_["l1"], values_["l3"]
+    reach = l0 + max(l1, l3)
+    fig = Figure(figsize=(8.0, 4.2 if values else 3.6), layout="constrained")
+    ax = fig.add_subplot()
+    _four_bar_frame(ax, values_, reach)
+    draw_four_bar(ax, s, values_, labels="full", fontsize=fontsize)
+    ax.set_aspect("equal")
+    points = four_bar_points(s, values_)
+    ax.set_xlim(min(points[:, 0].min(), 0.0) - 0.2 * reach, max(points[:, 0].max(), l0) + 0.32 * reach)
+    ax.set_ylim(min(points[:, 1].min(), 0.0) - 0.2 * reach, max(points[:, 1].max(), 0.0) + 0.12 * reach)
+    ax.set_axis_off()
+    if values:
+        units = {"l0": "m", "l1": "m", "l2": "m", "l3": "m", "m1": "kg", "m2": "kg", "m3": "kg", "g": "m/s²"}
+        items = _values_text(values_, units)
+        fig.text(0.5, 0.01, ", ".join(items[:4]) + "\n" + ", ".join(items[4:]), ha="center", va="bottom",
+                 fontsize=fontsize * 0.85, color=_INK, linespacing=1.5)
+        fig.get_layout_engine().set(rect=(0, 0.12, 1, 0.88))
+    return fig
+
+
+def animate_four_bar(result, lengths, fps=15, speed=None, title=None, frames=None, dpi=90, alt=None):
+    """A smooth offline HTML animation of a four-bar run, drawn by :func:`draw_four_bar`.
 
     Parameters
     ----------
@@ -116,7 +593,7 @@ def animate_four_bar(result, lengths, frames=30, duration=None, title=None):
         A run of the four-bar (coordinates theta1, theta2, theta3).
     lengths : mapping
         Values of ``l0, l1, l2, l3`` [m].
-    frames, duration, title
+    fps, speed, title, frames, dpi, alt
         As for :func:`animate_slider_crank`.
 
     Returns
@@ -125,52 +602,120 @@ def animate_four_bar(result, lengths, frames=30, duration=None, title=None):
         HTML to show with ``IPython.display.HTML``.
     """
     l0, l1, l3 = lengths["l0"], lengths["l1"], lengths["l3"]
-    reach = max(l1, l3)
+    arm = max(l1, l3)
+    reach = l0 + arm
 
-    def setup(ax, s):
-        ax.set_xlim(-1.1 * reach, l0 + 1.1 * reach)
-        ax.set_ylim(-1.15 * reach, 1.15 * reach)
-        ax.axhline(0.0, color="0.85", lw=1, zorder=0)
-        return draw_four_bar(ax, s, lengths)
+    def setup(ax):
+        ax.set_xlim(-1.15 * arm, l0 + 1.15 * arm)
+        ax.set_ylim(-1.2 * arm, 1.2 * arm)
+        _four_bar_frame(ax, lengths, reach)
+        return _scale_bar(ax, (-1.0 * arm, -1.05 * arm), 1.0 if reach > 2.5 else 0.1, 10)
 
-    def move(artists, s):
-        points = four_bar_points(s, lengths)
-        artists[0].set_data(points[:, 0], points[:, 1])
+    def draw(ax, s):
+        return draw_four_bar(ax, s, lengths, labels="light", fontsize=11)
 
-    width = 4.8
-    height = max(1.6, width * 2.3 * reach / (l0 + 2.2 * reach))
-    return _animate(result, setup, move, (width, height), frames, duration, title)
+    width = 6.4
+    height = max(2.4, width * 2.4 * arm / (l0 + 2.3 * arm) + 0.5)
+    what = alt or (f"Animation of the four-bar{f' ({title})' if title else ''}: crank OA, coupler AB and "
+                   "rocker DB moving along their run, with the time, the title and a scale bar on each frame.")
+    return _animate(result, setup, draw, (width, height), fps, speed, frames, title, dpi, what)
 
 
-def _animate(result, setup, move, size, frames, duration, title):
-    """The shared player: ``frames`` evenly spaced instants of ``result``, as offline HTML.
+# -- the shared player -------------------------------------------------------------------------
 
-    ``setup(ax, s)`` draws the mechanism at the first state and returns its
-    artists; ``move(artists, s)`` moves them to the state s.
+#: At most this many frames by default (about 0.75 MB of palette PNGs for the slider-crank).
+MAX_FRAMES = 150
+#: A run shorter than this [s] is played in slow motion over this many seconds.
+MIN_PLAYBACK = 4.0
+
+
+def playback(duration, fps=15, speed=None, frames=None):
+    """Frames and playback speed for ``duration`` seconds of motion at ``fps`` frames per second.
+
+    Parameters
+    ----------
+    duration : float
+        Seconds of motion.
+    fps : float
+    speed : float, optional
+        Seconds of motion per second of playback.  Default: the smallest whole number that keeps
+        the count within :data:`MAX_FRAMES`, or slow motion over :data:`MIN_PLAYBACK` seconds for
+        a shorter run.
+    frames : int, optional
+        Number of frames; if given, ``speed`` follows from it.
+
+    Returns
+    -------
+    (int, float)
+        The number of frames and the speed.
     """
-    from matplotlib.animation import FuncAnimation
+    if frames is not None:
+        frames = max(2, int(frames))
+        return frames, duration * fps / frames
+    if speed is None:
+        speed = max(1, math.ceil(duration * fps / MAX_FRAMES)) if duration >= MIN_PLAYBACK \
+            else duration / MIN_PLAYBACK
+    return max(2, int(round(duration * fps / speed))), float(speed)
+
+
+def _animate(result, setup, draw, size, fps, speed, frames, title, dpi, alt):
+    """The shared player: evenly spaced instants of ``result`` as palette PNGs in an offline HTML player.
+
+    ``setup(ax)`` draws the still parts; ``draw(ax, s)`` draws the mechanism at state ``s`` and
+    returns its artists, which are removed before the next frame.
+    """
     from matplotlib.figure import Figure
+    from PIL import Image
 
-    times = np.linspace(result.t[0], result.t[-1], frames)
-    index = np.minimum(np.searchsorted(result.t, times), result.t.size - 1)
-    fig = Figure(figsize=size, dpi=64, layout="constrained")
-    ax = fig.add_subplot()
+    t0, t1 = float(result.t[0]), float(result.t[-1])
+    count, speed = playback(t1 - t0, fps, speed, frames)
+    times = np.linspace(t0, t1, count)
+    index = np.abs(result.t[None, :] - times[:, None]).argmin(axis=1)          # the nearest output time
+    fig = Figure(figsize=size, dpi=dpi)
+    line = 16.0 / (72.0 * size[1])                     # one line of 11-12 pt text, as a fraction of the height
+    ax = fig.add_axes((0.0, 0.0, 1.0, 1.0 - 2.6 * line))
     ax.set_aspect("equal")
-    ax.set_xticks([])
-    ax.set_yticks([])
-    artists = setup(ax, result.s[:, index[0]])
-    stamp = ax.text(0.02, 0.88, "", transform=ax.transAxes, fontsize=11)
+    ax.set_axis_off()
+    setup(ax)
     if title:
-        ax.set_title(title, fontsize=11)
+        fig.text(0.015, 0.98, title, ha="left", va="top", fontsize=12, color=_INK, weight="bold")
+    pace = "" if speed == 1 else f", played at {speed:.2g}x real time"
+    stamp = fig.text(0.015, 0.98 - (1.15 * line if title else 0.0), "", ha="left", va="top", fontsize=11,
+                     color=_INK)
 
-    def update(k):
-        move(artists, result.s[:, index[k]])
-        stamp.set_text(f"t = {times[k]:4.1f} s")
-        return [*artists, stamp]
+    frames_png = []
+    moving = []
+    for k in range(count):
+        for artist in moving:
+            artist.remove()
+        moving = draw(ax, result.s[:, index[k]])
+        stamp.set_text(f"t = {result.t[index[k]]:.2f} s{pace}")
+        buffer = io.BytesIO()
+        fig.savefig(buffer, format="png", dpi=dpi)
+        image = Image.open(buffer).convert("RGB").quantize(colors=32, method=Image.Quantize.MEDIANCUT, dither=0)
+        packed = io.BytesIO()
+        image.save(packed, format="png", optimize=True)
+        frames_png.append(base64.encodebytes(packed.getvalue()).decode("ascii"))
 
-    seconds = (result.t[-1] - result.t[0]) if duration is None else duration
-    animation = FuncAnimation(fig, update, frames=frames, interval=1000.0 * seconds / frames, blit=False)
-    return _offline_player(animation.to_jshtml(default_mode="loop"))
+    html = _player_html(frames_png, fps)
+    html = html.replace('<img id="_anim_img', f'<img alt="{_escape(alt)}" id="_anim_img', 1)
+    return _offline_player(html)
+
+
+def _escape(text):
+    return text.replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;").replace(">", "&gt;")
+
+
+def _player_html(frames_png, fps):
+    """matplotlib's JavaScript player (as :meth:`Animation.to_jshtml` writes it) around PNG frames."""
+    import uuid
+
+    from matplotlib._animation_data import DISPLAY_TEMPLATE, JS_INCLUDE, STYLE_INCLUDE
+    from matplotlib.animation import _embedded_frames
+
+    return JS_INCLUDE + STYLE_INCLUDE + DISPLAY_TEMPLATE.format(
+        id=uuid.uuid4().hex, Nframes=len(frames_png), fill_frames=_embedded_frames(frames_png, "png"),
+        interval=int(round(1000 / fps)), once_checked="", loop_checked="checked", reflect_checked="")
 
 
 #: matplotlib's player asks for Font Awesome 4 from a CDN; the book's theme ships Font Awesome 6.

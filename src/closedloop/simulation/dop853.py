@@ -162,10 +162,11 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                                           outputs is None, y0.size)
             code = solver.get_return_code()
             if code < 0:
-                raise _with_path(IntegrationError(
+                error = IntegrationError(
                     f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
-                    "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains"
-                ), watch)
+                    "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains")
+                error.return_code, error.t = code, float(solver.t)
+                raise _with_path(error, watch)
             watch.last_t, watch.last_y = target, np.array(solver.y, dtype=float)
             if target in wanted:
                 watch.times.append(target)

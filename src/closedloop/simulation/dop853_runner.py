@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ClosedLoopError, SingularConfigurationError
+from ..errors import ClosedLoopError, IntegrationError, SingularConfigurationError
 from ..formulations.closed_form import partition_determinant
 from . import dop853
 
@@ -64,6 +64,11 @@ def segment(run, t0, s0, sd0, mode):
     except ClosedLoopError as error:                # a change point passed earlier is the real cause
         if hasattr(error, "path_times"):
             run.path.check(error.path_times, error.path_states, failed_at=error.failed_at)
+        if getattr(error, "return_code", None) == -2 and "nsteps" not in options.solver_options:
+            raise IntegrationError(                 # the cap was simulate's max_steps, not the user's nsteps
+                f"ode.dop853 reached max_steps = {options.max_steps} at t = {error.t:.6g} s of t_end = "
+                f"{run.t_end:g} s: the problem is stiff for this method, or the run too long; {run.advice()}, "
+                "or raise max_steps") from None
         raise
     run.nfev += result.nfev
     run.path.check(result.step_times, result.step_ends)

@@ -195,6 +195,11 @@ def _solve(run, rhs, t0, y0, events, reached, overflow):
         ) from None
 
 
+#: cond(Phi_s) above which the branch guard's message says Phi_s nearly loses rank (below it, the
+#: Kantorovich number is large because |f| is: the run drifted, at a well-conditioned configuration).
+NEAR_RANK_LOSS = 100.0
+
+
 def _check_crossings(run, times, states, unpack):
     """The branch guard (see the module's notes) at each zero of det Phi_z."""
     for t, y in zip(times, states):
@@ -203,12 +208,14 @@ def _check_crossings(run, times, states, unpack):
         largest, smallest, error = singular_values[0], singular_values[-1], np.linalg.norm(f)
         kantorovich = math.inf if smallest == 0 else largest * error / smallest**2
         if kantorovich > run.options.branch_limit:
+            condition = largest / smallest if smallest > 0 else math.inf
+            where = " where Phi_s nearly loses rank" if condition > NEAR_RANK_LOSS else ""
             raise SingularConfigurationError(
-                f"the path crossed a singular configuration of Phi_z at t = {t:.6g} s where Phi_s nearly "
-                f"loses rank (cond(Phi_s) = {largest / smallest:.3g}, |f| = {error:.3g}, Kantorovich "
-                f"number {kantorovich:.3g} > {run.options.branch_limit:g}): the constraint error is as large as "
-                "the distance between assembly branches, so the run may have changed branch; tighten rtol "
-                "and atol (at a bifurcation itself no formulation can choose the branch)"
+                f"the path crossed a singular configuration of Phi_z at t = {t:.6g} s{where} (cond(Phi_s) = "
+                f"{condition:.3g}, |f| = {error:.3g}, Kantorovich number {kantorovich:.3g} > "
+                f"{run.options.branch_limit:g}): the constraint error is as large as the distance between "
+                "assembly branches, so the run may have changed branch; tighten rtol and atol (at a "
+                "bifurcation itself no formulation can choose the branch)"
             )
         run.partition_singularities.append(float(t))
 

@@ -1,0 +1,269 @@
+"""The notebooks a reader downloads from the built site, opened and run as a reader would.
+
+Each chapter's and each exercise page's download (``_build/html/_sources/<page>.ipynb``,
+made by ``book/_ext/ipynb_download.py``) is copied alone into a fresh folder, with only
+the files its first cell asks for beside it (fetched through its links, as a reader would),
+and run top to bottom by nbclient in a fresh kernel there, with the library importable as
+after ``pip install``. The notebooks run side by side in a process pool. A download fails on:
+
+- MyST markup in a markdown cell: a directive fence (```` ```{note} ````), a role
+  (``{doc}`...` ``), a ``:label:`` line, a target ``(label)=``, a MyST comment; Jupyter shows
+  all of them as raw text;
+- a build marker (``BEGIN SOLUTION``, ``END SOLUTION``, ``STUDENT:``) in any cell;
+- in an exercise page's download, a solution: a solution heading, a line of a solution's code
+  or a sentence of a solution's prose;
+- an error while running: none in a chapter; in an exercise page, only the "not yet answered"
+  stop of each placeholder ``...``, one per check.
+
+The site is built with the README's command (``make -s book``, incremental) once; set
+``CLOSEDLOOP_BUILT_SITE=1`` to test the ``_build/html`` already there instead.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import zipfile
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+HTML = ROOT / "_build" / "html"
+#: A chapter's download holds its source's code cells unchanged, so running it is also the test that the
+#: chapter executes top to bottom (a separate chapter test would run the same cells a second time).
+PAGES = [f"chapters/{p.stem}" for p in sorted((ROOT / "chapters").glob("[0-9][0-9]-*.md"))] + \
+        [f"exercises/{p.stem}" for p in sorted((ROOT / "exercises").glob("[0-9][0-9]-*.md"))]
+#: Started first, so that the pool's workers finish together.
+LONGEST_FIRST = ("chapters/09", "chapters/12", "chapters/08", "chapters/10", "chapters/06")
+MARKERS = ("BEGIN SOLUTION", "END SOLUTION", "STUDENT:")
+
+
+# --- what plain Jupyter would show as raw MyST -----------------------------------------------
+FENCE = re.compile(r"^[ \t>]*(`{3,}|~{3,}|:{3,})[ \t]*\{[^}\n]*\}", re.M)
+LABEL = re.compile(r"^[ \t>]*:(label|name|class|nonumber|numbered|alt|align|header-rows):", re.M)
+TARGET = re.compile(r"^[ \t>]*\([\w:.-]+\)=[ \t]*$", re.M)
+COMMENT = re.compile(r"^%", re.M)
+ROLE = re.compile(r"\{[A-Za-z][\w:+-]*\}`")
+CODE = re.compile(r"^[ \t]*(`{3,}|~{3,})[^\n]*\n.*?^[ \t]*\1[ \t]*$|(`+)(?!`).+?(?<!`)\2(?!`)", re.M | re.S)
+
+
+def myst_markup(text: str) -> list[str]:
+    """The pieces of MyST syntax in ``text`` that CommonMark does not have (empty if none)."""
+    found = [m.group(0).strip() for m in FENCE.finditer(text)]
+    prose = CODE.sub(lambda m: "" if m.group(1) else "`code`", text)    # code shows as written: not markup
+    found += [m.group(0).strip() for pattern in (LABEL, TARGET, COMMENT, ROLE) for m in pattern.finditer(prose)]
+    return found
+
+
+@pytest.mark.parametrize("text", [
+    "```{note}\nHello\n```",
+    "::::{admonition} Hi\n:class: tip\nbody\n::::",
+    "See {doc}`../chapters/06-four-cases`.",
+    "As {cite:p}`khang2018` shows",
+    "the value {glue:text}`speed:.2f` rad/s",
+    "(sec-intro)=\n# Intro",
+    "% a comment\ntext",
+    "some text\n:label: ex-1\n",
+    "> ```{warning}\n> x\n> ```",
+    "a {prf:ref}`thm` b",
+])
+def test_the_myst_detector_finds_markup(text):
+    assert myst_markup(text)
+
+
+@pytest.mark.parametrize("text", [
+    "# Title\n\nText with $x^2$ and $$a = b$$ and a [link](x.ipynb) and **bold**.",
+    "```python\nx = {1: 2}\n```",
+    "A code span ``{doc}`x` `` shows the syntax, as does `` {ref}`y` ``.",
+    "> **Note**\n>\n> body\n\n### Exercise 6.3: title",
+    "50 % of it",
+    "![alt](attachment:1-figure.png)",
+])
+def test_the_myst_detector_passes_plain_markdown(text):
+    assert myst_markup(text) == []
+
+
+# --- the solutions that an exercise page's download must not hold ----------------------------
+def solutions(page):
+    """(code lines, prose sentences) found only inside the solutions of an exercise page's source."""
+    import jupytext
+
+    notebook = jupytext.read(ROOT / f"{page}.md")
+    inside, code, prose, outside = False, set(), set(), set()
+    for cell in notebook.cells:
+        if cell.cell_type == "markdown":
+            for block in re.split(r"^(?=[`:]{3,})", cell.source, flags=re.M):
+                opens = re.match(r"^[`:]{3,}\{(solution|solution-start|solution-end)\}", block)
+                if opens:
+                    inside = opens.group(1) != "solution-end"
+                    body = block.split("\n", 1)[-1] if opens.group(1) != "solution-end" else ""
+                    prose.update(s.strip() for s in re.split(r"(?<=[.:])\s+", body) if len(s.strip()) > 40
+                                 and not s.strip().startswith(":") and "```" not in s)
+                    if opens.group(1) == "solution":
+                        inside = False
+                elif inside:
+                    prose.update(s.strip() for s in re.split(r"(?<=[.:])\s+", block) if len(s.strip()) > 40)
+        else:
+            block, gated = False, inside and "# BEGIN SOLUTION" not in cell.source   # a gated cell goes whole
+            for line in cell.source.splitlines():
+                stripped = line.strip()
+                if stripped.startswith("# BEGIN SOLUTION"):
+                    block = True
+                elif stripped.startswith("# END SOLUTION"):
+                    block = False
+                elif block or gated:
+                    if len(stripped) > 15 and not stripped.startswith("# STUDENT:"):
+                        code.add(stripped)
+                else:
+                    outside.add(stripped)
+    return code - outside, prose
+
+
+# --- running a download as a reader would --------------------------------------------------
+def reader_environment():
+    """The kernel's environment: the library importable (as after pip install), nothing of the repository else."""
+    env = dict(os.environ)
+    paths = [str((ROOT / p).resolve()) if not os.path.isabs(p) else p
+             for p in env.get("PYTHONPATH", "").split(os.pathsep) if p]
+    env["PYTHONPATH"] = os.pathsep.join(p for p in paths if Path(p) != ROOT / "exercises")
+    return env
+
+
+def run_download(page):
+    """Copy ``page``'s download and what its first cell links to into a fresh folder, run it there.
+
+    Returns (the executed notebook, or the exception that stopped it; the linked files).
+    """
+    import tempfile
+
+    import nbclient
+    import nbformat
+
+    source = HTML / "_sources" / f"{page}.ipynb"
+    notebook = nbformat.read(source, as_version=4)
+    folder = Path(tempfile.mkdtemp(prefix="reader-"))
+    links = re.findall(r"\]\(([^)]+)\)", notebook.cells[0].source)
+    for link in links:
+        fetched = source.parent / link
+        if link.endswith(".zip"):
+            with zipfile.ZipFile(fetched) as archive:
+                archive.extractall(folder)
+        else:
+            (folder / link).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(fetched, folder / link)
+    shutil.copyfile(source, folder / source.name)
+    os.environ.update(reader_environment())
+    client = nbclient.NotebookClient(notebook, timeout=600, kernel_name="python3",
+                                     allow_errors=page.startswith("exercises/"),
+                                     resources={"metadata": {"path": str(folder)}})
+    try:
+        client.execute()
+    except Exception as error:                       # kept, and raised by the page's own test
+        return f"{type(error).__name__}: {error}"[:3000], links
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    return notebook, links
+
+
+@pytest.fixture(scope="module")
+def built():
+    if os.environ.get("CLOSEDLOOP_BUILT_SITE") != "1":
+        done = subprocess.run(["make", "-s", "book"], cwd=ROOT, capture_output=True, text=True, timeout=1500)
+        assert done.returncode == 0, f"make book failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+    assert (HTML / "index.html").exists(), "no built site in _build/html"
+    return HTML
+
+
+@pytest.fixture(scope="module")
+def executed(built):
+    order = sorted(PAGES, key=lambda p: (not p.startswith(LONGEST_FIRST), p))
+    with ProcessPoolExecutor(max_workers=max(1, min(len(order), os.cpu_count() or 1))) as pool:
+        return dict(zip(order, pool.map(run_download, order)))
+
+
+def downloaded(page):
+    import nbformat
+
+    path = HTML / "_sources" / f"{page}.ipynb"
+    assert path.exists(), f"{page}: no notebook in the download"
+    assert f"_sources/{page}.ipynb" in (HTML / f"{page}.html").read_text(), f"{page}: not in the download menu"
+    return nbformat.read(path, as_version=4)
+
+
+@pytest.mark.parametrize("page", PAGES)
+def test_a_download_has_no_myst_and_no_marker(built, page):
+    notebook = downloaded(page)
+    for index, cell in enumerate(notebook.cells):
+        if cell.cell_type == "markdown":
+            assert myst_markup(cell.source) == [], f"{page}, cell {index}: MyST markup left"
+        assert not [m for m in MARKERS if m in cell.source], f"{page}, cell {index}: a build marker"
+
+
+@pytest.mark.parametrize("page", [p for p in PAGES if p.startswith("exercises/")])
+def test_an_exercise_download_is_the_student_version(built, page):
+    notebook = downloaded(page)
+    assert not (HTML / "_sources" / f"{page}.md").exists(), f"{page}: its source, with the solutions, is offered"
+    code_lines, sentences = solutions(page)
+    assert code_lines and sentences, f"{page}: no solution found in the source (the test would prove nothing)"
+    code = "\n".join(c.source for c in notebook.cells if c.cell_type == "code")
+    prose = " ".join(" ".join(c.source.split()) for c in notebook.cells if c.cell_type == "markdown")
+    assert not [line for line in code_lines if line in code], f"{page}: solution code in the download"
+    assert not [s for s in sentences if " ".join(s.split()) in prose], f"{page}: solution prose in the download"
+    assert not re.search(r"^#+ Solution", prose, flags=re.M) and "Solution" not in prose
+    checks = re.findall(r'check\("([\d.]+)"', code)
+    assert checks and code.count("= ...") == len(checks), f"{page}: one placeholder per check"
+
+
+def test_the_book_has_its_thirteen_chapters():
+    assert [p[len("chapters/"):][:2] for p in PAGES if p.startswith("chapters/")] == [f"{k:02d}" for k in
+                                                                                      range(1, 14)]
+
+
+@pytest.mark.parametrize("page", PAGES)
+def test_a_download_runs_top_to_bottom(executed, page):
+    notebook, _ = executed[page]
+    assert not isinstance(notebook, str), f"{page} did not run: {notebook}"
+    errors = [o for c in notebook.cells if c.cell_type == "code" for o in c.get("outputs", [])
+              if o.get("output_type") == "error"]
+    if page.startswith("chapters/"):
+        assert errors == [], f"{page}: {[e['ename'] + ': ' + e['evalue'] for e in errors]}"
+        code_cells = [c for c in notebook.cells if c.cell_type == "code"]
+        assert code_cells, f"{page} has no code cell: every chapter computes what it shows"
+        assert all(c.get("execution_count") for c in code_cells), f"{page}: a code cell was not executed"
+    else:
+        placeholders = sum(c.source.count("= ...") for c in notebook.cells if c.cell_type == "code")
+        assert [e["ename"] for e in errors] == ["NotAnswered"] * placeholders, \
+            f"{page}: {[e['ename'] + ': ' + e['evalue'] for e in errors]}"
+
+
+def test_the_converter_leaves_plain_markdown_and_keeps_math():
+    """book/_ext/plain_notebook.py on a sample of every kind of markup the detector knows."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("plain_notebook", ROOT / "book" / "_ext" / "plain_notebook.py")
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    sample = "\n\n".join([
+        "(sec-x)=\n## A section", "% a comment",
+        "Text {doc}`../chapters/06-four-cases`, {ref}`the outline <preface-course>`, {cite:p}`khang2018`, "
+        "$x^2$, {eq}`eq-16`, {glue:text}`speed:.3f` and [(16)](eq-16).",
+        ":::{admonition} Take note\n:class: tip\nBody with {term}`drift <constraint drift>`.\n:::",
+        "```{exercise} 6.1: The threshold speed\n:label: ex-6-threshold\n:nonumber:\n\nFind it.\n```",
+        "```{solution-start} ex-6-threshold\n:class: dropdown\n```",
+        "````{note}\nOuter\n```{warning}\nInner\n```\n````",
+        "$$\na = b\n$$ (eq-a)",
+        "```{prf:theorem} Orthogonality\n:label: thm\nStatement.\n```",
+    ])
+    assert len(myst_markup(sample)) >= 10
+    out = plain.convert_markdown(sample, plain.Resolver("chapters/06-four-cases", ROOT))
+    assert myst_markup(out) == [], out
+    for kept in ("## A section", "$x^2$", "$$\na = b\n$$", "### Exercise 6.1: The threshold speed", "#### Solution",
+                 "> **Take note**", "> > **Warning**", "**Theorem (Orthogonality).**", "(16)", "the outline",
+                 "The four cases"):
+        assert kept in out, kept
+    marked = "# BEGIN SOLUTION\n# STUDENT: x = ...\nx = 1\n# END SOLUTION\ncheck('6.4', x)"
+    assert plain.strip_markers(marked) == "x = 1\ncheck('6.4', x)"

@@ -1,0 +1,131 @@
+"""The labelled drawings of the mechanisms and their animations.
+
+The drawings must sit where the model puts the bodies (checked against closed-form geometry that
+does not use the library's Newton solver), mark every symbol of Table 1 and of the coordinates,
+follow a change of length, and point the gas force as the reading makes it act.  The animations
+must play at least 15 frames per second over the whole run, with alt text, offline.
+"""
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+from closedloop import System, simulate
+from closedloop.four_bar import four_bar_model
+from closedloop.plotting.mechanism import (animate_four_bar, animate_slider_crank, four_bar_diagram, playback,
+                                           slider_crank_diagram)
+from closedloop.slider_crank import CASES, SliderCrankParameters, initial_state, slider_crank_system
+
+from .conftest import PARALLELOGRAM
+
+#: Every symbol of Table 1, of s = [phi, psi, x_C], of the points and of the applied forces.
+SLIDER_CRANK_SYMBOLS = ["$O$", "$A$", "$C$", "$C_1$", "$C_2$", r"$\varphi$", r"$\psi$", "$x_C$", "$l_1$", "$l_2$",
+                        "$a_1", "$a_2$", "$m_1", "$m_2", "$m_3$", "I_1$", "I_2$", "$M$", "$g$", "$F$"]
+FOUR_BAR_SYMBOLS = ["$O$", "$A$", "$B$", "$D$", r"$\theta_1$", r"$\theta_2", r"$\theta_3$", "$l_0$", "$l_1$",
+                    "$l_2$", "$l_3$", "$C_1$, $m_1$", "$C_2$, $m_2$", "$C_3$, $m_3$", "$g$"]
+
+
+def texts(figure):
+    """Every text on the figure, annotations included."""
+    return [t.get_text() for ax in figure.axes for t in ax.texts] + [t.get_text() for t in figure.texts]
+
+
+def named(figure, gid):
+    (artist,) = figure.findobj(lambda a: a.get_gid() == gid)
+    return artist
+
+
+def closed_form_slider(l1, l2, phi):
+    """x_C of (27)-(28) on the paper's branch, solved by hand: x_C = l1 cos phi + sqrt(l2^2 - l1^2 sin^2 phi)."""
+    return l1 * math.cos(phi) + math.sqrt(l2**2 - (l1 * math.sin(phi))**2)
+
+
+@pytest.mark.parametrize("phi", [0.9, 2.5, -1.2])
+def test_slider_crank_is_drawn_where_the_model_puts_it(slider_crank, phi):
+    figure = slider_crank_diagram(slider_crank, phi=phi)
+    p = slider_crank.parameters
+    x_c = closed_form_slider(p.l1, p.l2, phi)
+    o, a, c = named(figure, "links").get_xydata()
+    assert np.allclose(o, 0.0)
+    assert np.allclose(a, [2.0 * math.cos(phi), 2.0 * math.sin(phi)], atol=1e-12)        # Table 1: l1 = 2 m
+    assert np.allclose(c, [x_c, 0.0], atol=1e-9)
+    slider = named(figure, "slider")
+    assert slider.get_x() + slider.get_width() / 2 == pytest.approx(x_c, abs=1e-9)
+    assert named(figure, "x_C").xy == pytest.approx((x_c, named(figure, "x_C").xy[1]), abs=1e-9)
+    assert named(figure, "x_C").xyann[0] == pytest.approx(0.0, abs=1e-12)                  # measured from O
+    # C1 at O (a1 = 0), C2 at a2 = 1.75 m from A along the rod towards C
+    assert np.allclose(named(figure, "C1").get_xydata(), [[0.0, 0.0]])
+    (c2,) = named(figure, "C2").get_xydata()
+    assert np.linalg.norm(c2 - a) == pytest.approx(1.75, abs=1e-9)
+    assert np.allclose(c2, a + 1.75 / 3.5 * (c - a), atol=1e-9)
+
+
+def test_slider_crank_drawing_marks_every_symbol_with_table_1(slider_crank):
+    shown = texts(slider_crank_diagram(slider_crank))
+    missing = [symbol for symbol in SLIDER_CRANK_SYMBOLS if not any(symbol in text for text in shown)]
+    assert missing == []
+    values = " ".join(shown)
+    for entry in ("$l_1$ = 2 m", "$a_1$ = 0 m", "$m_1$ = 200 kg", "$I_1$ = 450 kg m²", "$l_2$ = 3.5 m",
+                  "$a_2$ = 1.75 m", "$m_2$ = 35 kg", "$I_2$ = 35 kg m²", "$m_3$ = 25 kg", "$g$ = 9.81 m/s²"):
+        assert entry in values
+
+
+def test_changing_a_length_moves_the_drawing():
+    longer = slider_crank_system(SliderCrankParameters(l1=1.5, a1=0.4, l2=4.0))
+    figure = slider_crank_diagram(longer, phi=0.9)
+    _, a, c = named(figure, "links").get_xydata()
+    assert np.allclose(a, [1.5 * math.cos(0.9), 1.5 * math.sin(0.9)])
+    assert c[0] == pytest.approx(closed_form_slider(1.5, 4.0, 0.9), abs=1e-9)
+    assert c[0] != pytest.approx(closed_form_slider(2.0, 3.5, 0.9), abs=1e-3)
+    assert np.allclose(named(figure, "C1").get_xydata(), [[0.4 * math.cos(0.9), 0.4 * math.sin(0.9)]])
+    assert any("$a_1$" == text for text in texts(figure))                # a dimension line now, not "a1 = 0"
+
+
+@pytest.mark.parametrize("reading, towards_o", [("decimal-opposing", True), ("decimal-as-printed", False)])
+def test_gas_force_points_as_the_reading_makes_it_act(reading, towards_o):
+    figure = slider_crank_diagram(slider_crank_system(reading=reading), phi=0.9)
+    arrow = named(figure, "F")
+    head, tail = arrow.xy[0], arrow.xyann[0]
+    assert (head < tail) == towards_o
+    assert named(figure, "g").xy[1] < named(figure, "g").xyann[1]           # gravity down
+    assert named(figure, "g").xy[0] == named(figure, "g").xyann[0]
+
+
+def test_four_bar_drawing_closes_the_loop_and_marks_every_symbol():
+    system = System(four_bar_model(), PARALLELOGRAM)
+    figure = four_bar_diagram(system, theta1=1.1)
+    o, a, b, d = named(figure, "links").get_xydata()
+    assert np.allclose(a, [math.cos(1.1), math.sin(1.1)])
+    assert np.allclose(b, [3.0 + math.cos(1.1), math.sin(1.1)], atol=1e-9)           # the parallelogram
+    assert np.allclose(d, [3.0, 0.0])
+    assert np.allclose(named(figure, "C2").get_xydata(), [(a + b) / 2])
+    shown = texts(figure)
+    assert [symbol for symbol in FOUR_BAR_SYMBOLS if not any(symbol in text for text in shown)] == []
+    wider = four_bar_diagram(System(four_bar_model(), dict(PARALLELOGRAM, l0=3.2)), theta1=1.1)
+    assert named(wider, "links").get_xydata()[3] == pytest.approx([3.2, 0.0])
+    assert "$l_0$ = 3.2 m" in " ".join(texts(wider))
+
+
+def test_playback_is_at_least_15_frames_a_second():
+    assert playback(20.0) == (150, 2.0)               # 20 s of motion in 10 s of playback
+    assert playback(5.0) == (75, 1.0)
+    assert playback(0.5, fps=20) == (80, 0.125)            # slow motion over 4 s
+    frames, speed = playback(3.0, frames=30)
+    assert frames / (3.0 / speed) == pytest.approx(15.0)
+
+
+def test_animations_are_smooth_labelled_and_offline(slider_crank, parallelogram_swing):
+    case = CASES[2]
+    result = simulate(slider_crank, initial_state(slider_crank, case.phi0, case.dphi0), 1.0,
+                      t_eval=np.linspace(0, 1, 101))
+    html = animate_slider_crank(result, slider_crank.parameters, title="Case 2")
+    assert len(re.findall(r"frames\[\d+\] = ", html)) == 60            # 1 s of motion in 4 s of playback
+    assert re.search(r"new Animation\(frames, img_id, slider_id, 67,", html)                 # ms a frame
+    assert 'alt="Animation of the slider-crank (Case 2)' in html
+    assert "https://" not in html and "http://" not in html and 'class="fa fa-' not in html
+    assert len(html) < 60 * 8_000
+    _, swing = parallelogram_swing
+    html = animate_four_bar(swing, {k: PARALLELOGRAM[k] for k in ("l0", "l1", "l2", "l3")}, alt="a swing")
+    assert html.count("data:image/png;base64") == 75 and 'alt="a swing"' in html
