@@ -233,6 +233,9 @@ def test_style_file_is_package_data_and_meets_the_minimum_at_its_size():
                                           "legend.fontsize", "axes.titlesize"))
     assert smallest * DISPLAY_WIDTH_PX / (72 * width) >= MIN_TEXT_PX
     assert style["figure.dpi"] * width >= DISPLAY_WIDTH_PX                  # never blown up past its pixels
+    # a session style that set a layout engine would impose it on every later figure, also on the
+    # animations' hand-placed axes (savefig then runs constrained layout on them and warns)
+    assert not any(key.startswith("figure.constrained_layout") for key in style)
 
 
 def test_chapter_figure_cells_use_the_style():
@@ -252,6 +255,8 @@ def test_chapter_figure_cells_use_the_style():
             assert float(width) <= 6.4, (path.name, width)
         for call in _calls(text, ".legend("):
             assert "bbox_to_anchor" in call or "outside" in call, (path.name, call)
+        for call in _calls(text, "plt.subplots("):                 # the style leaves layout to each figure
+            assert 'layout="constrained"' in call, (path.name, call)
 
 
 def _calls(text, opening):

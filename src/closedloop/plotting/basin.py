@@ -36,7 +36,7 @@ def plot_basin_map(basin, title=None, cases=True, ax=None):
 
     with book_style():
         if ax is None:
-            fig = Figure(figsize=(6.4, 4.4))
+            fig = Figure(figsize=(6.4, 4.4), layout="constrained")
             ax = fig.add_subplot()
         else:
             fig = ax.figure

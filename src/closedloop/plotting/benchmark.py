@@ -100,7 +100,7 @@ def work_precision_figure(rows, case, entries=None):
     columns = min(3, len(methods))                # the text column is 6.4 inches: at most 3 panels a row
     rows_of_panels = -(-len(methods) // columns)
     with book_style():
-        fig = Figure(figsize=(6.4, 2.3 * rows_of_panels + 1.9))
+        fig = Figure(figsize=(6.4, 2.3 * rows_of_panels + 1.9), layout="constrained")
         grid = fig.subplots(rows_of_panels, columns, sharex=True, sharey=True, squeeze=False)
         axes = list(grid.flat)
         for ax in axes[len(methods):]:
@@ -159,7 +159,7 @@ def pareto_figure(rows, entries=None):
     columns = min(2, len(cases))
     panel_rows = math.ceil(len(cases) / columns)
     with book_style():
-        fig = Figure(figsize=(6.4, 2.6 * panel_rows + 1.7))
+        fig = Figure(figsize=(6.4, 2.6 * panel_rows + 1.7), layout="constrained")
         axes = np.atleast_1d(fig.subplots(panel_rows, columns, sharex=True, sharey=True, squeeze=False)).ravel()
         for index, (ax, case) in enumerate(zip(axes, cases)):
             for label in labels:
@@ -201,7 +201,7 @@ def residual_figure(traces, title=None):
 
     styles = _entry_styles([e.label for e in study_entries()])
     with book_style():
-        fig = Figure(figsize=(6.4, 3.9))
+        fig = Figure(figsize=(6.4, 3.9), layout="constrained")
         axes = fig.subplots(1, 2, sharex=True)
         for k, (label, (t, f_norm, fd_norm)) in enumerate(traces.items()):
             style = dict(styles.get(label, {}), markevery=max(1, len(t) // 8), ms=5)

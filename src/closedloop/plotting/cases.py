@@ -28,7 +28,7 @@ def plot_slider_crank(result, title=None):
     from .style import book_style, legend_outside
 
     with book_style():
-        fig = Figure(figsize=(6.4, 7.2))
+        fig = Figure(figsize=(6.4, 7.2), layout="constrained")
         grid = fig.add_gridspec(3, 2)
         t = result.t
         crank, rod, slider = "C0", "C1", "C2"
