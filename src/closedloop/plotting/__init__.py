@@ -4,6 +4,8 @@
 - :mod:`~closedloop.plotting.cases`: the paper-style figures of one slider-crank run (figures 3-14);
 - :mod:`~closedloop.plotting.basin`: the basin map (chapter 12);
 - :mod:`~closedloop.plotting.benchmark`: the error-against-run-time figures (chapter 8);
+- :mod:`~closedloop.plotting.style`: the book's one style (``closedloop.mplstyle``), applied by
+  every figure function here and by :func:`use_book_style` in a chapter that draws its own figure;
 - :mod:`~closedloop.plotting.tables`: `Table`, the book's printed tables as HTML tables.
 
 Every public name is re-exported here, so ``from closedloop.plotting import X`` works.  No module
@@ -20,10 +22,11 @@ from .cases import plot_slider_crank
 from .mechanism import (animate_four_bar, animate_slider_crank, draw_four_bar, draw_slider_crank, four_bar_centres,
                         four_bar_diagram, four_bar_points, slider_crank_centres, slider_crank_diagram,
                         slider_crank_points)
+from .style import book_style, legend_outside, use_book_style
 from .tables import Table
 
 __all__ = ["plot_slider_crank", "slider_crank_points", "slider_crank_centres", "draw_slider_crank",
            "slider_crank_diagram", "animate_slider_crank", "four_bar_points", "four_bar_centres", "draw_four_bar",
            "four_bar_diagram", "animate_four_bar", "plot_basin_map",
            "work_precision_figure", "pareto_figure", "residual_figure",
-           "Table"]
+           "Table", "book_style", "use_book_style", "legend_outside"]

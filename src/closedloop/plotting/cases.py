@@ -11,6 +11,8 @@ __all__ = ["plot_slider_crank"]
 def plot_slider_crank(result, title=None):
     """Angles and rates (figs 3, 6, 9, 12), slider position and speed (4, 7, 10, 13), |f| (5, 8, 11, 14).
 
+    Five panels in the book's style; one legend below them names the crank, rod and slider colours.
+
     Parameters
     ----------
     result : SimulationResult
@@ -23,32 +25,35 @@ def plot_slider_crank(result, title=None):
     """
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(10, 8), layout="constrained")
-    grid = fig.add_gridspec(3, 2)
-    t = result.t
-    panels = [
-        (grid[0, 0], [("phi", result.coordinate("phi"), r"$\varphi$"), ("psi", result.coordinate("psi"), r"$\psi$")],
-         "angle [rad]"),
-        (grid[0, 1], [("dphi", result.velocity("phi"), r"$\dot\varphi$"), ("dpsi", result.velocity("psi"), r"$\dot\psi$")],
-         "angular velocity [rad/s]"),
-        (grid[1, 0], [("x", result.coordinate("x"), r"$x_C$")], "slider position [m]"),
-        (grid[1, 1], [("dx", result.velocity("x"), r"$\dot x_C$")], "slider velocity [m/s]"),
-    ]
-    for spec, curves, ylabel in panels:
-        ax = fig.add_subplot(spec)
-        for _, values, label in curves:
-            ax.plot(t, values, label=label)
-        ax.set_ylabel(ylabel)
+    from .style import book_style, legend_outside
+
+    with book_style():
+        fig = Figure(figsize=(6.4, 7.2), layout="constrained")
+        grid = fig.add_gridspec(3, 2)
+        t = result.t
+        crank, rod, slider = "C0", "C1", "C2"
+        panels = [
+            (grid[0, 0], [(result.coordinate("phi"), crank), (result.coordinate("psi"), rod)],
+             r"$\varphi$, $\psi$ [rad]"),
+            (grid[0, 1], [(result.velocity("phi"), crank), (result.velocity("psi"), rod)],
+             r"$\dot\varphi$, $\dot\psi$ [rad/s]"),
+            (grid[1, 0], [(result.coordinate("x"), slider)], r"slider $x_C$ [m]"),
+            (grid[1, 1], [(result.velocity("x"), slider)], r"slider $\dot x_C$ [m/s]"),
+        ]
+        for spec, curves, ylabel in panels:
+            ax = fig.add_subplot(spec)
+            for values, colour in curves:
+                ax.plot(t, values, color=colour)
+            ax.set_ylabel(ylabel)
+            ax.set_xlabel("t [s]")
+        ax = fig.add_subplot(grid[2, :])
+        ax.semilogy(t, result.constraint_error, color="k")
         ax.set_xlabel("t [s]")
-        ax.grid(alpha=0.3)
-        if len(curves) > 1:
-            ax.legend(loc="best")
-    ax = fig.add_subplot(grid[2, :])
-    ax.semilogy(t, result.constraint_error, color="k", label=r"$|f| = \sqrt{f_1^2 + f_2^2}$ (32)")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("constraint error [m]")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(loc="best")
-    if title:
-        fig.suptitle(title)
+        ax.set_ylabel(r"$|\mathbf{f}|$ of (32) [m]")
+        ax.grid(True, which="both", alpha=0.25)
+        handles = [fig.axes[0].lines[0], fig.axes[0].lines[1], fig.axes[2].lines[0]]
+        legend_outside(fig, handles, [r"crank: $\varphi$, $\dot\varphi$", r"rod: $\psi$, $\dot\psi$",
+                                      r"slider: $x_C$, $\dot x_C$"])
+        if title:
+            fig.suptitle(title)
     return fig
