@@ -16,7 +16,7 @@ after ``pip install``. The notebooks run side by side in a process pool. A downl
   stop of each placeholder ``...``, one per check.
 
 The site is built with the README's command (``make -s book``, incremental) once; set
-``CLOSEDLOOP_BUILT_SITE=1`` to test the ``_build/html`` already there instead.
+``CLOSEDLOOP_SITE_BUILT=1`` to test the ``_build/html`` already there instead.
 """
 
 from __future__ import annotations
@@ -171,7 +171,7 @@ def run_download(page):
 
 @pytest.fixture(scope="module")
 def built():
-    if os.environ.get("CLOSEDLOOP_BUILT_SITE") != "1":
+    if os.environ.get("CLOSEDLOOP_SITE_BUILT") != "1":
         done = subprocess.run(["make", "-s", "book"], cwd=ROOT, capture_output=True, text=True, timeout=1500)
         assert done.returncode == 0, f"make book failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
     assert (HTML / "index.html").exists(), "no built site in _build/html"
