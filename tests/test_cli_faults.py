@@ -299,8 +299,11 @@ def test_keyboard_interrupt_in_process_and_the_handlers_are_restored(capsys, mon
 
 
 def start(*argv):
+    # A shell's background job (nohup, `&`) inherits SIGINT ignored, and Python then keeps it ignored:
+    # the command starts with SIGINT at its default, as when a user runs it in a terminal.
     return subprocess.Popen([sys.executable, "-m", "closedloop.cli", *argv], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONPATH": SRC})
+                            stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONPATH": SRC},
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 BIG_BASIN = ["basin", "--phi0", "0:2pi:90", "--dphi0", "0:3:90", "--t-end", "20", "--workers", "2"]   # ~20 s
