@@ -103,3 +103,57 @@ def quick_benchmark(tmp_path_factory):
         status = main(["benchmark", "--quick", "--json", str(path), "--figures", str(folder / "figures")])
     assert status == 0, err.getvalue()
     return json.loads(path.read_text()), out.getvalue(), folder / "figures"
+
+
+# --- the built book, shared by every test that reads it ---------------------------------------
+# The book is executed once per test session, by the README's build command, and every test of the
+# chapters, the exercise pages, their downloads and the site reads that one build (nothing executes a
+# chapter a second time). The build starts in the background as soon as the tests are collected, so it
+# runs on one core while the library's tests run on the other; the tests that read it are moved to the
+# end of the session and wait for it there. CLOSEDLOOP_SITE_BUILT=1 reads the _build/html already there.
+import os                                  # noqa: E402
+import signal                              # noqa: E402
+import subprocess                          # noqa: E402
+from pathlib import Path                   # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+BUILD_LOG = ROOT / "_build" / "test-build.log"
+
+
+def pytest_collection_modifyitems(session, config, items):
+    reading = [item for item in items if "built_site" in getattr(item, "fixturenames", ())]
+    if not reading:
+        return
+    waiting = {id(item) for item in reading}
+    items[:] = [item for item in items if id(item) not in waiting] + reading
+    if os.environ.get("CLOSEDLOOP_SITE_BUILT") == "1" or config.option.collectonly:
+        return
+    BUILD_LOG.parent.mkdir(exist_ok=True)
+    log = open(BUILD_LOG, "w")             # noqa: SIM115  (closed in pytest_unconfigure)
+    config._closedloop_build = (subprocess.Popen(["make", "-s", "book"], cwd=ROOT, stdout=log,
+                                                 stderr=subprocess.STDOUT, start_new_session=True), log)
+
+
+def pytest_unconfigure(config):
+    build = getattr(config, "_closedloop_build", None)
+    if build is not None:
+        process, log = build
+        if process.poll() is None:         # the session ended early (Ctrl-C, -x): stop the build too
+            os.killpg(process.pid, signal.SIGTERM)
+            process.wait(timeout=30)
+        log.close()
+
+
+@pytest.fixture(scope="session")
+def built_site(request):
+    """``_build/html``, built once for the session by ``make -s book`` (incremental)."""
+    build = getattr(request.config, "_closedloop_build", None)
+    if build is not None:
+        process, log = build
+        code = process.wait(timeout=1800)
+        log.flush()
+        tail = BUILD_LOG.read_text()[-4000:]
+        assert code == 0, f"make book failed (exit {code}); the end of {BUILD_LOG}:\n{tail}"
+    html = ROOT / "_build" / "html"
+    assert (html / "index.html").exists(), f"no built site in {html}"
+    return html

@@ -1,22 +1,28 @@
-"""The notebooks a reader downloads from the built site, opened and run as a reader would.
+"""The notebooks a reader downloads from the built site, read and run as a reader would.
 
 Each chapter's and each exercise page's download (``_build/html/_sources/<page>.ipynb``,
-made by ``book/_ext/ipynb_download.py``) is copied alone into a fresh folder, with only
-the files its first cell asks for beside it (fetched through its links, as a reader would),
-and run top to bottom by nbclient in a fresh kernel there, with the library importable as
-after ``pip install``. The notebooks run side by side in a process pool. A download fails on:
+made by ``book/_ext/ipynb_download.py``) is checked. A download fails on:
 
 - MyST markup in a markdown cell: a directive fence (```` ```{note} ````), a role
   (``{doc}`...` ``), a ``:label:`` line, a target ``(label)=``, a MyST comment; Jupyter shows
   all of them as raw text;
 - a build marker (``BEGIN SOLUTION``, ``END SOLUTION``, ``STUDENT:``) in any cell;
 - in an exercise page's download, a solution: a solution heading, a line of a solution's code
-  or a sentence of a solution's prose;
-- an error while running: none in a chapter; in an exercise page, only the "not yet answered"
-  stop of each placeholder ``...``, one per check.
+  or a sentence of a solution's prose.
 
-The site is built with the README's command (``make -s book``, incremental) once; set
-``CLOSEDLOOP_SITE_BUILT=1`` to test the ``_build/html`` already there instead.
+A chapter's download is the notebook the book's build executed (the build runs every chapter once,
+and stops on any error): its code cells must be its source's, in order, each run once, top to
+bottom, in one kernel, with no error, and every data file its code names must be linked from its
+first cell (the files a reader fetches beside it). Running it again here would repeat the build's run.
+
+An exercise page's download is its student version, which the build does not run: each is copied
+alone into a fresh folder, with only the files its first cell asks for beside it (fetched through
+its links, as a reader would), and run top to bottom by nbclient in a fresh kernel there, with the
+library importable as after ``pip install``. The only errors allowed are the "not yet answered"
+stops, one per placeholder ``...``.
+
+The site is built once for the session (the ``built_site`` fixture of conftest.py, the README's
+``make book``); set ``CLOSEDLOOP_SITE_BUILT=1`` to test the ``_build/html`` already there instead.
 """
 
 from __future__ import annotations
@@ -24,7 +30,6 @@ from __future__ import annotations
 import os
 import re
 import shutil
-import subprocess
 import zipfile
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -33,12 +38,12 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 HTML = ROOT / "_build" / "html"
-#: A chapter's download holds its source's code cells unchanged, so running it is also the test that the
-#: chapter executes top to bottom (a separate chapter test would run the same cells a second time).
+#: Every page with a download: the thirteen chapters and their exercise pages.
 PAGES = [f"chapters/{p.stem}" for p in sorted((ROOT / "chapters").glob("[0-9][0-9]-*.md"))] + \
         [f"exercises/{p.stem}" for p in sorted((ROOT / "exercises").glob("[0-9][0-9]-*.md"))]
-#: Started first, so that the pool's workers finish together.
-LONGEST_FIRST = ("chapters/09", "chapters/12", "chapters/08", "chapters/10", "chapters/06")
+EXERCISE_PAGES = [p for p in PAGES if p.startswith("exercises/")]
+#: File names a chapter's code may read beside its notebook (data), which its first cell must link.
+DATA_FILE = re.compile(r"""["']([\w.-]+\.(?:json|csv|npz|npy|txt|dat))["']""")
 MARKERS = ("BEGIN SOLUTION", "END SOLUTION", "STUDENT:")
 
 
@@ -157,8 +162,7 @@ def run_download(page):
             shutil.copyfile(fetched, folder / link)
     shutil.copyfile(source, folder / source.name)
     os.environ.update(reader_environment())
-    client = nbclient.NotebookClient(notebook, timeout=600, kernel_name="python3",
-                                     allow_errors=page.startswith("exercises/"),
+    client = nbclient.NotebookClient(notebook, timeout=600, kernel_name="python3", allow_errors=True,
                                      resources={"metadata": {"path": str(folder)}})
     try:
         client.execute()
@@ -170,19 +174,15 @@ def run_download(page):
 
 
 @pytest.fixture(scope="module")
-def built():
-    if os.environ.get("CLOSEDLOOP_SITE_BUILT") != "1":
-        done = subprocess.run(["make", "-s", "book"], cwd=ROOT, capture_output=True, text=True, timeout=1500)
-        assert done.returncode == 0, f"make book failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
-    assert (HTML / "index.html").exists(), "no built site in _build/html"
-    return HTML
+def built(built_site):
+    return built_site
 
 
 @pytest.fixture(scope="module")
 def executed(built):
-    order = sorted(PAGES, key=lambda p: (not p.startswith(LONGEST_FIRST), p))
-    with ProcessPoolExecutor(max_workers=max(1, min(len(order), os.cpu_count() or 1))) as pool:
-        return dict(zip(order, pool.map(run_download, order)))
+    """Every exercise page's download, run once in its own fresh folder (two at a time)."""
+    with ProcessPoolExecutor(max_workers=max(1, min(len(EXERCISE_PAGES), os.cpu_count() or 1))) as pool:
+        return dict(zip(EXERCISE_PAGES, pool.map(run_download, EXERCISE_PAGES)))
 
 
 def downloaded(page):
@@ -223,21 +223,41 @@ def test_the_book_has_its_thirteen_chapters():
                                                                                       range(1, 14)]
 
 
-@pytest.mark.parametrize("page", PAGES)
-def test_a_download_runs_top_to_bottom(executed, page):
+@pytest.mark.parametrize("page", [p for p in PAGES if p.startswith("chapters/")])
+def test_a_chapter_download_is_its_source_as_the_build_ran_it(built, page):
+    import jupytext
+
+    notebook = downloaded(page)
+    code = [c for c in notebook.cells if c.cell_type == "code"]
+    source = [c.source for c in jupytext.read(ROOT / f"{page}.md").cells if c.cell_type == "code"]
+    assert code, f"{page} has no code cell: every chapter computes what it shows"
+    assert [c.source for c in code] == source, f"{page}: the download's code is not its source's"
+    assert [c.get("execution_count") for c in code] == list(range(1, len(code) + 1)), \
+        f"{page}: its cells were not run once each, top to bottom, in one kernel"
+    errors = [o for c in code for o in c.get("outputs", []) if o.get("output_type") == "error"]
+    assert errors == [], f"{page}: {[e['ename'] + ': ' + e['evalue'] for e in errors]}"
+    assert any(c.get("outputs") for c in code), f"{page}: the download holds no output"
+    links = {Path(link).name for link in re.findall(r"\]\(([^)]+)\)", notebook.cells[0].source)}
+    named = {name for c in code for name in DATA_FILE.findall(c.source)}
+    assert named <= links, f"{page}: its code reads {sorted(named - links)}, which its first cell does not link"
+
+
+def test_the_data_file_detector_finds_what_chapter_8_reads():
+    found = DATA_FILE.findall((ROOT / "chapters" / "08-error-vs-runtime.md").read_text())
+    assert found and set(found) == {"benchmark.json"}
+
+
+@pytest.mark.parametrize("page", EXERCISE_PAGES)
+def test_an_exercise_download_runs_and_stops_only_at_its_placeholders(executed, page):
     notebook, _ = executed[page]
     assert not isinstance(notebook, str), f"{page} did not run: {notebook}"
-    errors = [o for c in notebook.cells if c.cell_type == "code" for o in c.get("outputs", [])
-              if o.get("output_type") == "error"]
-    if page.startswith("chapters/"):
-        assert errors == [], f"{page}: {[e['ename'] + ': ' + e['evalue'] for e in errors]}"
-        code_cells = [c for c in notebook.cells if c.cell_type == "code"]
-        assert code_cells, f"{page} has no code cell: every chapter computes what it shows"
-        assert all(c.get("execution_count") for c in code_cells), f"{page}: a code cell was not executed"
-    else:
-        placeholders = sum(c.source.count("= ...") for c in notebook.cells if c.cell_type == "code")
-        assert [e["ename"] for e in errors] == ["NotAnswered"] * placeholders, \
-            f"{page}: {[e['ename'] + ': ' + e['evalue'] for e in errors]}"
+    code = [c for c in notebook.cells if c.cell_type == "code"]
+    assert all(c.get("execution_count") for c in code), f"{page}: a code cell was not executed"
+    errors = [o for c in code for o in c.get("outputs", []) if o.get("output_type") == "error"]
+    placeholders = sum(c.source.count("= ...") for c in code)
+    assert [e["ename"] for e in errors] == ["NotAnswered"] * placeholders, \
+        f"{page}: {[e['ename'] + ': ' + e['evalue'] for e in errors]}"
+    assert all("is not yet answered" in e["evalue"] for e in errors)
 
 
 def test_the_converter_leaves_plain_markdown_and_keeps_math():

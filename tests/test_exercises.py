@@ -3,8 +3,10 @@
 Each exercise notebook is written once, with its solutions. ``exercises/make_student.py``
 makes the student version. These tests show:
 
-- every solution notebook executes, and every one of its checks says "right";
-- every student notebook executes with only "not yet answered" errors, one per placeholder;
+- every solution notebook executes, and every one of its checks says "right" (read from the book's
+  build, which executes each page once: the ``built_site`` fixture of conftest.py);
+- every student version keeps one ``...`` per check and no solution (tests/test_downloads.py runs
+  each, as a reader downloads it, and sees it stop only at its placeholders);
 - a wrong answer fed to each check is reported as wrong (a check that cannot fail is a defect).
 """
 
@@ -25,12 +27,19 @@ def checks_of(path):
     return importlib.import_module(f"checking.ch{path.name[:2]}").CHECKS
 
 
-def execute(notebook, allow_errors=False):
-    import nbclient
+def executed_by_the_build(path, site):
+    """The exercise page ``path`` as the book's build executed it (its outputs, from the execution cache).
 
-    client = nbclient.NotebookClient(notebook, timeout=300, kernel_name="python3", allow_errors=allow_errors,
-                                     resources={"metadata": {"path": str(EXERCISES)}})
-    client.execute()
+    The build runs every exercise page once, with its solutions; this reads that run instead of
+    running the page again.
+    """
+    import jupytext
+    from jupyter_cache import get_cache
+
+    try:
+        _, notebook = get_cache(site.parent / ".jupyter_cache").merge_match_into_notebook(jupytext.read(path))
+    except KeyError:
+        pytest.fail(f"{path.name}: the build's execution cache holds no run of this page's current source")
     return notebook
 
 
@@ -44,11 +53,14 @@ def test_one_exercise_notebook_per_chapter():
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
-def test_solution_notebook_runs_and_every_check_says_right(path):
-    import jupytext
-
-    notebook = execute(jupytext.read(path))
-    output = "\n".join(text_of(c) for c in notebook.cells if c.cell_type == "code")
+def test_solution_notebook_runs_and_every_check_says_right(path, built_site):
+    notebook = executed_by_the_build(path, built_site)
+    code = [c for c in notebook.cells if c.cell_type == "code"]
+    assert [c.get("execution_count") for c in code] == list(range(1, len(code) + 1)), \
+        f"{path.name}: not run top to bottom in one kernel"
+    errors = [o for c in code for o in c.get("outputs", []) if o.get("output_type") == "error"]
+    assert errors == [], f"{path.name}: {[e['ename'] + ': ' + e['evalue'] for e in errors]}"
+    output = "\n".join(text_of(c) for c in code)
     labels = list(checks_of(path))
     assert len(labels) >= 4
     for label in labels:
@@ -56,28 +68,22 @@ def test_solution_notebook_runs_and_every_check_says_right(path):
     assert "not right yet" not in output
 
 
-@pytest.fixture(scope="module")
-def student_notebooks(tmp_path_factory):
-    return make_student.write_student_versions(tmp_path_factory.mktemp("student"))
+def test_the_student_versions_keep_every_check_and_no_solution(tmp_path):
+    """``make student`` (make_student.py): one notebook per page, one ``...`` per check, no solution.
 
-
-@pytest.mark.parametrize("index", range(len(NOTEBOOKS)), ids=[p.stem for p in NOTEBOOKS])
-def test_student_notebook_stops_only_at_its_placeholders(student_notebooks, index):
+    Each student version is run, as a reader downloads it, by tests/test_downloads.py.
+    """
     import nbformat
 
-    path = student_notebooks[index]
-    notebook = nbformat.read(path, as_version=4)
-    source = "\n".join(c.source for c in notebook.cells)
-    assert "BEGIN SOLUTION" not in source and "{solution" not in source and "STUDENT:" not in source
-    placeholders = sum(c.source.count("= ...") for c in notebook.cells if c.cell_type == "code")
-    assert placeholders == len(checks_of(path))
-    import nbclient
-
-    nbclient.NotebookClient(notebook, timeout=300, kernel_name="python3", allow_errors=True,
-                            resources={"metadata": {"path": str(path.parent)}}).execute()
-    errors = [o for c in notebook.cells for o in c.get("outputs", []) if o.get("output_type") == "error"]
-    assert [e["ename"] for e in errors] == ["NotAnswered"] * placeholders
-    assert all("is not yet answered" in e["evalue"] for e in errors)
+    written = make_student.write_student_versions(tmp_path)
+    assert [p.stem for p in written] == [p.stem for p in NOTEBOOKS]
+    assert (tmp_path / "checking" / "__init__.py").exists()
+    for path in written:
+        cells = nbformat.read(path, as_version=4).cells
+        source = "\n".join(c.source for c in cells)
+        assert "BEGIN SOLUTION" not in source and "{solution" not in source and "STUDENT:" not in source, path.name
+        placeholders = sum(c.source.count("= ...") for c in cells if c.cell_type == "code")
+        assert placeholders == len(checks_of(path)), path.name
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)

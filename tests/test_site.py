@@ -1,6 +1,7 @@
 """The built site, read as a reader would: in headless Chromium, page by page.
 
-Builds the book with the README's command (`make book`, incremental), serves ``_build/html`` on
+Reads the book built once for the session (the ``built_site`` fixture of conftest.py, which runs the
+README's build command, ``make book``, beside the library's tests), serves ``_build/html`` on
 127.0.0.1 and opens the front page and every page listed in ``_toc.yml``. A page fails on
 
 - a console error or an uncaught page error (there is no list of harmless ones);
@@ -23,9 +24,7 @@ running ``make book``.
 
 import functools
 import http.server
-import os
 import shutil
-import subprocess
 import threading
 from pathlib import Path
 
@@ -55,14 +54,10 @@ def toc_pages():
 
 
 @pytest.fixture(scope="module")
-def site():
+def site(built_site):
     if not Path(CHROMIUM).exists():
         pytest.skip(f"Chromium is not installed ({CHROMIUM} not found), so the built site was NOT "
                     "checked in a browser: install Debian's chromium package (make test tries to)")
-    if os.environ.get("CLOSEDLOOP_SITE_BUILT") != "1":
-        done = subprocess.run(["make", "-s", "book"], cwd=ROOT, capture_output=True, text=True, timeout=1500)
-        assert done.returncode == 0, f"make book failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
-    assert (HTML / "index.html").exists(), f"no built site in {HTML}"
 
     class Quiet(http.server.SimpleHTTPRequestHandler):
         def log_message(self, *args):
