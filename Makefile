@@ -12,7 +12,7 @@ STAMP  := $(VENV)/.installed
 # Every .py below src/ and exercises/checking, in subpackages too (find, not a one-level wildcard).
 SOURCE_HASH = $(shell cat $$(find src exercises/checking -name '*.py' -not -path '*/__pycache__/*' | LC_ALL=C sort) pyproject.toml requirements/lock.txt _config.yml book/data/benchmark.json | sha256sum | cut -c1-16)
 
-.PHONY: book test browser student benchmark benchmark-data clean
+.PHONY: book test browser student benchmark benchmark-data timings speed clean
 
 $(STAMP): requirements/lock.txt pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -50,6 +50,15 @@ benchmark: $(STAMP)
 # fails until this is run after a change to the library's numerics.
 benchmark-data: $(STAMP)
 	$(BIN)/closedloop benchmark --json book/data/benchmark.json
+
+# Where readers and maintainers wait (issue 14): notebooks' execution, make test from a clean clone,
+# the command line, output grids, the basin map; every figure from one run, beside its target (~12 min).
+timings: $(STAMP)
+	$(BIN)/python benchmarks/timings.py
+
+# The library's best route against the sympy.physics.mechanics baseline at its best, per case.
+speed: $(STAMP)
+	$(BIN)/python benchmarks/speed_vs_baseline.py
 
 clean:
 	rm -rf _build

@@ -1,0 +1,143 @@
+"""Where readers and maintainers wait: the figures of issue 14, measured in one run.
+
+Run as ``make timings`` (or ``python benchmarks/timings.py [--skip-make-test] [--skip PART ...]``).
+Every figure printed comes from this run; nothing is read from earlier runs. This is a benchmark
+script, not a test: it asserts nothing, it prints each figure beside its target.
+
+Parts, in order:
+
+notebooks (target 1: each <= 20 s, all <= 120 s)
+    Every notebook page of the book (the ``_toc.yml`` order: chapters, the notation page, the
+    appendix, the exercise pages with their solutions) executed top to bottom by nbclient in a fresh
+    kernel, in its own folder, as the build executes it. Kernel start and imports are included.
+make-test (target 2: <= 7 min from a clean clone, every notebook executed once)
+    ``git clone`` of this repository into a temporary folder, then ``make test`` there, timed: the
+    virtual environment's installation (``make .venv/.installed``, from pip's cache) and the test
+    run separately. Needs Chromium for the site test, as ``make test`` does. About 8 minutes.
+cli (target 3: ``closedloop simulate --case 2`` <= 0.4 s wall)
+    ``benchmarks/cli_time.py``.
+output-grid (target 4: 10 000 outputs cost <= 1.5 x no outputs)
+    ``benchmarks/output_grid_cost.py``.
+basin (target 6: 100 x 100 in < 60 s)
+    ``benchmarks/basin.py --size 100``.
+
+The speed against the sympy.physics.mechanics baseline (target 5) is its own script,
+``benchmarks/speed_vs_baseline.py``, run by ``make speed``: it takes longer than all of these.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PARTS = ("notebooks", "make-test", "cli", "output-grid", "basin")
+#: The scripts of the other parts, with their arguments.
+SCRIPTS = {
+    "cli": ["benchmarks/cli_time.py"],
+    "output-grid": ["benchmarks/output_grid_cost.py"],
+    "basin": ["benchmarks/basin.py", "--size", "100", "--sample", "0"],
+}
+
+
+def notebook_pages():
+    """The book's notebook pages in table-of-contents order (paths relative to ROOT)."""
+    import yaml
+
+    toc = yaml.safe_load((ROOT / "_toc.yml").read_text())
+    files = [toc["root"]] + [chapter["file"] for part in toc.get("parts", []) for chapter in part["chapters"]]
+    pages = []
+    for name in files:
+        path = ROOT / f"{name}.md"
+        if path.exists() and path.read_text().startswith("---\njupytext:"):
+            pages.append(path.relative_to(ROOT))
+    return pages
+
+
+def time_notebook(path):
+    """Wall time [s] of one execution of the notebook at ``path``, kernel start included."""
+    import jupytext
+    import nbclient
+
+    notebook = jupytext.read(ROOT / path)
+    start = time.perf_counter()
+    nbclient.NotebookClient(notebook, timeout=600, kernel_name="python3",
+                            resources={"metadata": {"path": str((ROOT / path).parent)}}).execute()
+    return time.perf_counter() - start
+
+
+def notebooks():
+    print("== notebooks: execution of every page, kernel start included (target: each <= 20 s, all <= 120 s)")
+    env_path = os.environ.get("PYTHONPATH", "")
+    os.environ["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT / "src"), env_path) if p)
+    times = {}
+    for path in notebook_pages():
+        times[path] = time_notebook(path)
+        flag = "" if times[path] <= 20 else "   over 20 s"
+        print(f"  {times[path]:6.1f} s  {path}{flag}", flush=True)
+    total = sum(times.values())
+    slowest = max(times, key=times.get)
+    print(f"  total {total:.0f} s over {len(times)} notebooks (target <= 120 s); "
+          f"slowest {times[slowest]:.1f} s ({slowest})")
+
+
+def make_test():
+    print("== make test from a clean clone (target <= 7 min, every notebook executed once)")
+    if shutil.which("chromium") is None:
+        print("  note: chromium is not installed; make test will try to install it, or skip the site test")
+    folder = Path(tempfile.mkdtemp(prefix="closedloop-clone-"))
+    try:
+        subprocess.run(["git", "clone", "-q", str(ROOT), str(folder / "repo")], check=True)
+        repo = folder / "repo"
+        start = time.perf_counter()
+        subprocess.run(["make", "-s", ".venv/.installed"], cwd=repo, check=True, stdout=subprocess.DEVNULL)
+        install = time.perf_counter() - start
+        start = time.perf_counter()
+        done = subprocess.run(["make", "-s", "test"], cwd=repo, capture_output=True, text=True)
+        tests = time.perf_counter() - start
+        summary = [line for line in done.stdout.splitlines() if " passed" in line or " failed" in line]
+        print(f"  virtual environment: {install:.0f} s (pip, from its cache)")
+        print(f"  make test: {tests:.0f} s = {tests / 60:.1f} min (target <= 7 min), exit {done.returncode}")
+        print(f"  {summary[-1].strip('= ') if summary else done.stdout[-500:]}")
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def script(part):
+    arguments = SCRIPTS[part]
+    print(f"== {part}: {' '.join(arguments)}", flush=True)
+    if not (ROOT / arguments[0]).exists():
+        print(f"  {arguments[0]} is missing")
+        return
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(ROOT / "src"),
+                                                                 os.environ.get("PYTHONPATH", "")) if p))
+    subprocess.run([sys.executable, *arguments], cwd=ROOT, env=env, check=False)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--skip", nargs="*", default=[], choices=PARTS, help="parts not to run")
+    parser.add_argument("--skip-make-test", action="store_true", help="the same as --skip make-test")
+    args = parser.parse_args(argv)
+    skipped = set(args.skip) | ({"make-test"} if args.skip_make_test else set())
+    print(f"closedloop timings, {time.strftime('%Y-%m-%d %H:%M')}, {os.cpu_count()} cores, "
+          f"load average {os.getloadavg()[0]:.2f}")
+    for part in PARTS:
+        if part in skipped:
+            continue
+        if part == "notebooks":
+            notebooks()
+        elif part == "make-test":
+            make_test()
+        else:
+            script(part)
+
+
+if __name__ == "__main__":
+    main()
