@@ -146,3 +146,20 @@ def test_a_stuck_slider_is_released_where_the_holding_force_reaches_its_limit():
     assert np.max(np.abs(result.sd[2, moving])) > 0.01           # it does move again
     assert result.max_constraint_error < 1e-5
 
+
+
+def test_the_rule_decides_one_state_as_it_decides_many():
+    """switching.decide for one state (floats, as Run.decide calls it) and for arrays (the basin map)
+    give the same sides and sticking, including the boundaries (a rate of 0) and NaN."""
+    from closedloop.simulation import switching
+
+    rates = (-2.0, -0.0, 0.0, 3.0, math.nan)
+    cases = [(off, on, side) for off in rates for on in rates for side in (False, True)]
+    off, on, side = (np.array(column) for column in zip(*cases))
+    sides, sticks = switching.decide(off, on, side)
+    for k, (a, b, c) in enumerate(cases):
+        one = switching.decide(np.float64(a), b, np.bool_(c))
+        assert one == (bool(sides[k]), bool(sticks[k])), (a, b, c)
+        assert type(one[0]) is bool and type(one[1]) is bool
+    assert switching.decide(1.0, -1.0, False) == (False, True)       # both push onto the surface: it sticks
+    assert switching.decide(-1.0, -1.0, True) == (False, False)      # both leave to the off side

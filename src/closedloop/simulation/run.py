@@ -27,6 +27,11 @@ __all__ = ["Run", "SegmentEnd", "MAX_RELEASE_SAMPLES"]
 MAX_RELEASE_SAMPLES = 1_000_000
 
 
+def _scale(s, sd):
+    """``1 + max |s_k|, |s'_k|``: the size of a state, for the thresholds of the switching rule."""
+    return 1.0 + float(max(np.abs(s).max(), np.abs(sd).max()))
+
+
 class SegmentEnd(NamedTuple):
     """Where a segment stopped: at ``t_end`` (``event`` None), at switch ``event``, or at stop_when."""
 
@@ -168,7 +173,7 @@ class Run:
         own motions over :data:`~closedloop.simulation.switching.PROBE_TIME` decide.
         """
         off, on = self.side_rates(t, s, sd, mode, i)
-        if rule.uninformative(off, on, 1.0 + np.max(np.abs(np.concatenate((s, sd))))):
+        if rule.uninformative(off, on, _scale(s, sd)):
             off, on = (rule.probe(self.force.switching_functions, lambda time, q, qd, b=branch: self._accelerations(
                 time, q, qd, b), t, s, sd)[i] / rule.PROBE_TIME
                 for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
@@ -186,7 +191,7 @@ class Run:
             return (), None
         values = self.force.switching_functions(t, s, sd)
         mode = tuple(bool(v > 0) for v in values)
-        scale = 1.0 + np.max(np.abs(np.concatenate((s, sd))))
+        scale = _scale(s, sd)
         for i, v in enumerate(values):
             if rule.on_surface(v, scale):
                 mode, action = self.decide(t, s, sd, mode, i)

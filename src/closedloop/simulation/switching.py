@@ -98,6 +98,13 @@ def decide(off, on, side):
         Where both branches push onto the surface (``off > 0 > on``); the caller
         applies the sticking rule there (``new_side`` is then ``side``).
     """
+    if not any(isinstance(a, np.ndarray) for a in (off, on, side)):     # one state: no arrays (run.decide)
+        sticks = bool(off > 0 and on < 0)
+        if off > 0 and on > 0:
+            return True, sticks
+        if off < 0 and on < 0:
+            return False, sticks
+        return bool(side), sticks
     off, on = np.asarray(off), np.asarray(on)
     new_side = np.where((off > 0) & (on > 0), True, np.where((off < 0) & (on < 0), False, side))
     sticks = (off > 0) & (on < 0)

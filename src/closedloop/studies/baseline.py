@@ -15,10 +15,18 @@ can compare the library with what a reader would otherwise have:
   :func:`closedloop.gas_law.printed_law` (the one source of the law in the
   library) with the same reading of the data as :class:`closedloop.slider_crank.GasForce`;
   the usual user integrates straight through its switches (no events);
-- Table 1 values substituted, ``mass_matrix_full`` and ``forcing_full`` turned
-  into functions by ``lambdify`` with its default settings, and the right-hand
-  side ``y' = mass_matrix_full^{-1} forcing_full`` by ``numpy.linalg.solve``
-  at every call.  This is the unstabilised augmented (index-1) system (12).
+- Table 1 values substituted, and the rows of (12) below the kinematic
+  identity, ``mass_matrix_full[3:, 3:]`` and ``forcing_full[3:, :]`` (5 x 5 and
+  5 x 1: s'' and lambda), turned into ONE function by ``lambdify(..., cse=True)``
+  with sympy's default (numpy) printer, the way the sympy.physics.mechanics
+  tutorials do it; the right-hand side is ``y' = [s', s'']`` with s'' from one
+  ``numpy.linalg.solve`` of that 5 x 5 system at every call.  This is the
+  unstabilised augmented (index-1) system (12).
+
+``modules="math"`` prints the same expressions for Python's ``math`` module
+(the gas force's ``Piecewise`` becomes a conditional expression instead of
+``numpy.select``): a lambdify setting that a user tuning for speed may choose,
+kept so that the benchmark can report the comparison against it as well.
 """
 
 from __future__ import annotations
@@ -39,6 +47,8 @@ __all__ = ["LagrangesBaseline", "BaselineResult"]
 
 #: The solve_ivp methods the baseline accepts.
 BASELINE_METHODS = SOLVE_IVP_METHODS
+#: The printers of lambdify the baseline can use (see the module's notes).
+BASELINE_MODULES = ("numpy", "math")
 
 
 @dataclass
@@ -78,6 +88,9 @@ class LagrangesBaseline:
     reading : str, optional
         How to read the paper's data (see :data:`closedloop.slider_crank.READINGS`);
         the default reproduces the paper.
+    modules : {"numpy", "math"}, optional
+        The printer of ``lambdify``: sympy's default ``"numpy"``, or ``"math"``
+        (scalar code, faster per call; see the module's notes).
 
     Attributes
     ----------
@@ -85,12 +98,13 @@ class LagrangesBaseline:
         Process time from the first symbol to the lambdified functions [s].
     """
 
-    def __init__(self, parameters=None, reading=DEFAULT_READING):
+    def __init__(self, parameters=None, reading=DEFAULT_READING, modules="numpy"):
         self.parameters = instance_of("parameters", SliderCrankParameters() if parameters is None else parameters,
                                       SliderCrankParameters)
         self.reading = get_reading(reading)
+        self.modules = one_of("modules", modules, BASELINE_MODULES)
         start = time.process_time()
-        self._mass_full, self._forcing_full = self._derive()
+        self._matrices = self._derive()
         self.derivation_cpu_time = time.process_time() - start
 
     def _derive(self):
@@ -124,16 +138,21 @@ class LagrangesBaseline:
         method.form_lagranges_equations()
         values = {sm.Symbol(name): value for name, value in self.parameters.as_dict().items()}
         arguments = [phi, psi, x, dphi, dpsi, dx, t]
-        return (sm.lambdify(arguments, method.mass_matrix_full.subs(values)),
-                sm.lambdify(arguments, method.forcing_full.subs(values)))
+        # (12) without its kinematic rows s' = s': the 5 x 5 matrix of [s''; lambda] and its right side
+        mass = method.mass_matrix_full[3:, 3:].subs(values)
+        forcing = method.forcing_full[3:, :].subs(values)
+        if self.modules == "math":          # the math printer takes lists, not matrices
+            return sm.lambdify(arguments, [mass.tolist(), list(forcing)], modules="math", cse=True)
+        return sm.lambdify(arguments, [mass, forcing], cse=True)
 
     def rhs(self, t, y):
         """``y' = F(t, y)`` for ``y = [phi, psi, x_C, phi', psi', x_C']``.
 
-        ``mass_matrix_full [s'; s''; lambda] = forcing_full``, solved by numpy.
+        ``mass_matrix_full[3:, 3:] [s''; lambda] = forcing_full[3:]``, solved by numpy.
         """
-        solution = np.linalg.solve(self._mass_full(*y, t), self._forcing_full(*y, t))
-        return solution[:6, 0]
+        mass, forcing = self._matrices(*y, t)
+        accelerations = np.linalg.solve(mass, forcing)[:3]
+        return np.concatenate((y[3:], np.ravel(accelerations)))
 
     def simulate(self, initial_state, t_end=20.0, method="RK45", rtol=1e-9, atol=1e-9, t_eval=None):
         """Integrate from ``initial_state`` (an InitialState) with solve_ivp, as a user would.
