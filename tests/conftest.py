@@ -1,6 +1,9 @@
 """Shared fixtures: the slider-crank of the paper and a pendulum with a known ODE."""
 
 import math
+import os
+import shutil
+import tempfile
 
 import numpy as np
 import pytest
@@ -9,6 +12,20 @@ import sympy as sp
 from closedloop import MultibodyModel, System
 from closedloop.four_bar import four_bar_model
 from closedloop.slider_crank import slider_crank_system
+
+
+
+def pytest_configure(config):
+    """Generated code goes to a fresh temporary cache folder (closedloop.codecache), never to ~/.cache.
+
+    Set before any test is collected, so the commands that tests start inherit it too.
+    """
+    config.closedloop_cache = tempfile.mkdtemp(prefix="closedloop-test-cache-")
+    os.environ["CLOSEDLOOP_CACHE_DIR"] = config.closedloop_cache
+
+
+def pytest_unconfigure(config):
+    shutil.rmtree(getattr(config, "closedloop_cache", ""), ignore_errors=True)
 
 
 @pytest.fixture(scope="session")

@@ -78,11 +78,15 @@ def test_jacobian_and_its_rate_term_are_those_of_27_28():
 
 
 def test_derivation_runs_once_per_model():
-    """A second system on the same model reuses the derivation: a cache hit, no new miss."""
+    """A second system on the same model reuses its generated functions (a cache hit, no new miss),
+    and binding a system calls no derivation at all: a System needs the numeric functions only."""
+    from closedloop.model import model_functions
     from closedloop.slider_crank import slider_crank_system
 
     slider_crank_system()
-    before = derive.cache_info()
-    slider_crank_system(reading="thousands-opposing")
-    after = derive.cache_info()
+    before, derived = model_functions.cache_info(), derive.cache_info()
+    second = slider_crank_system(reading="thousands-opposing")
+    after = model_functions.cache_info()
     assert (after.misses, after.hits) == (before.misses, before.hits + 1)
+    assert derive.cache_info() == derived
+    assert second.derived is derive(slider_crank_model())        # on demand, the one derivation of the model

@@ -62,6 +62,20 @@ class SwitchedForce:
         """
         return None
 
+    def cache_key(self, mode):
+        """A string that fixes :meth:`expressions` on branch ``mode``, or None (the default).
+
+        Code generated from the expressions (the forcing period of
+        :func:`closedloop.simulation.switching.forcing_period`, the closed form's
+        right-hand sides) is kept on disk under this key and the package's
+        source (:mod:`closedloop.codecache`), so it must change whenever the
+        expressions could: name the class and every number they use.  Two
+        branches with the same key share one generated function.  A force of a
+        class defined outside this package has its source outside the key:
+        leave it None there, and the code is generated again in every run.
+        """
+        return None
+
     def switching_functions_many(self, t, s, sd) -> np.ndarray:
         """The h_i at K states, shape (k, K); ``s``, ``sd`` of shape (n, K), t a float or (K,).
 

@@ -8,8 +8,6 @@ from __future__ import annotations
 
 from functools import lru_cache
 
-import sympy as sp
-
 from .model import MultibodyModel
 
 __all__ = ["four_bar_model", "parameter_values"]
@@ -25,7 +23,12 @@ def four_bar_model() -> MultibodyModel:
     B = (l0 + l3 cos theta3, l3 sin theta3). Gravity g acts along -y, Pi = 0 at y = 0.
     The loop closes (A + l2 (cos theta2, sin theta2) = B) with two constraints; theta1
     is independent.
+
+    ``System(four_bar_model, values)`` (the function, not its model) loads the
+    numeric functions from the disk cache without building the model.
     """
+    import sympy as sp
+
     th1, th2, th3 = sp.symbols("theta1 theta2 theta3")
     w1, w2, w3 = sp.symbols("dtheta1 dtheta2 dtheta3")
     l0, l1, l2, l3, m1, m2, m3, g = sp.symbols("l0 l1 l2 l3 m1 m2 m3 g")

@@ -9,27 +9,31 @@ Lagrange's equations with multipliers read (5), (8)::
 
 This module turns a symbolic description (T, Pi, constraints, forces) into
 fast numeric functions for ``M``, ``p1``, ``f``, ``Phi_s`` and
-``Phi_s' s'`` (the term of (10)-(11)).  The derivation runs once per model
-and is cached; every numeric call afterwards is plain numpy.
+``Phi_s' s'`` (the term of (10)-(11)).  The derivation runs once per model;
+its generated functions are kept on disk (:mod:`closedloop.codecache`), so
+that a later run loads them without sympy, and every numeric call is plain
+Python or numpy.  sympy is imported only where a derivation is needed: a
+:class:`System` of a cached model never imports it.
 """
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Callable, NamedTuple
 
 import numpy as np
-import sympy as sp
 
+from .codecache import cached_code
 from .errors import InputError
 from .forces import as_switched_force
 from .linalg import CONDITION_LIMIT, condition_number, orthogonal_complement, solve_augmented
 from .validation import finite_number
 
-__all__ = ["MultibodyModel", "DerivedModel", "derive", "System", "Dynamics", "array_functions", "condition_number",
-           "CONDITION_LIMIT"]
+__all__ = ["MultibodyModel", "DerivedModel", "derive", "System", "Dynamics", "ModelFunctions", "model_functions",
+           "array_functions", "condition_number", "CONDITION_LIMIT"]
 
 
 class Dynamics(NamedTuple):
@@ -87,7 +91,7 @@ class MultibodyModel:
         one per coordinate.  Forces that are not smooth expressions (switches,
         tables) are passed as Python callables to :class:`System` instead.
     time : sympy.Symbol, optional
-        The time symbol used in ``generalized_forces``.
+        The time symbol used in ``generalized_forces`` (default ``t``).
     """
 
     coordinates: tuple
@@ -98,9 +102,13 @@ class MultibodyModel:
     independent: tuple
     parameters: tuple = ()
     generalized_forces: tuple | None = None
-    time: sp.Symbol = sp.Symbol("t")
+    time: sp.Symbol | None = None          # None: the symbol t (sympy is imported here only when a model is made)
 
     def __post_init__(self):
+        import sympy as sp
+
+        if self.time is None:
+            object.__setattr__(self, "time", sp.Symbol("t"))
         for name in ("coordinates", "velocities", "constraints", "independent", "parameters"):
             object.__setattr__(self, name, tuple(getattr(self, name)))
         if self.generalized_forces is not None:
@@ -194,26 +202,18 @@ class DerivedModel:
         multipliers : sequence of sympy.Symbol
             Symbols for lambda.
         """
+        import sympy as sp
+
         sdd = sp.Matrix(accelerations)
         lam = sp.Matrix(multipliers)
         return self.mass_matrix * sdd + self.jacobian.T * lam - self.p1
 
 
 @lru_cache(maxsize=None)
-def derive(model: MultibodyModel) -> DerivedModel:
-    """Derive Lagrange's equations with multipliers (5)-(11) and lambdify them.
+def _symbolic_equations(model):
+    """The sympy terms of (5)-(11): ``(M, p1, f, Phi_s, Phi_s' s', T, Pi)``, for :func:`derive`."""
+    import sympy as sp
 
-    Runs once per model (the result is cached on the model, which is immutable).
-    Common subexpressions are eliminated in the generated numeric code.
-
-    Parameters
-    ----------
-    model : MultibodyModel
-
-    Returns
-    -------
-    DerivedModel
-    """
     s = sp.Matrix(model.coordinates)
     sd = sp.Matrix(model.velocities)
     T = sp.sympify(model.kinetic_energy)
@@ -233,17 +233,160 @@ def derive(model: MultibodyModel) -> DerivedModel:
     f = sp.Matrix(model.constraints)
     Phi = f.jacobian(s)                                                      # (9)
     gamma = (Phi * sd).jacobian(s) * sd                                      # Phi_s' s' of (10)
-
-    args = [model.time, list(model.coordinates), list(model.velocities), list(model.parameters)]
-    flat = [*M, *p1, *f, *Phi, *gamma]
-    dynamics = sp.lambdify(args, flat, modules="math", cse=True)
-    constraint_functions = sp.lambdify(args[1:2] + args[3:], [*f, *Phi], modules="math", cse=True)
-    energies = sp.lambdify(args[1:], [T, Pi], modules="numpy", cse=True)
-    return DerivedModel(model, M, p1, f, Phi, gamma, dynamics, constraint_functions, energies)
+    return M, p1, f, Phi, gamma, T, Pi
 
 
 @lru_cache(maxsize=None)
-def array_functions(model: MultibodyModel):
+def derive(model: MultibodyModel) -> DerivedModel:
+    """Derive Lagrange's equations with multipliers (5)-(11); their numeric functions come with them.
+
+    Runs once per model (the result is cached on the model, which is immutable).
+    The numeric functions are those of :func:`model_functions`: generated with
+    common subexpressions eliminated, and loaded from the disk cache when a
+    previous run generated them.
+
+    Parameters
+    ----------
+    model : MultibodyModel
+
+    Returns
+    -------
+    DerivedModel
+    """
+    M, p1, f, Phi, gamma, _, _ = _symbolic_equations(model)
+    functions = model_functions(model)
+    return DerivedModel(model, M, p1, f, Phi, gamma, functions.dynamics, functions.constraint_functions,
+                        functions.energies)
+
+
+@dataclass(frozen=True)
+class ModelFunctions:
+    """The numeric functions of a model, and the names that go with them: all a :class:`System` needs.
+
+    Made by :func:`model_functions` from the derivation of (5)-(11), or loaded
+    from the disk cache without sympy.
+
+    Attributes
+    ----------
+    identity : str
+        What the cache knows the model by (see :func:`model_functions`).
+    coordinates, velocities, parameters : tuple of str
+        The names of the model's symbols, in order.
+    independent_index, dependent_index : tuple of int
+        Positions of ``q`` and ``z`` within ``s``.
+    constraint_count : int
+        r, the number of constraints (6).
+    dynamics, constraint_functions, energies : callable
+        As the attributes of :class:`DerivedModel` of the same names.
+    dynamics_many, constraint_functions_many : callable
+        The same entries as ``dynamics`` and ``constraint_functions``, generated for
+        numpy arrays (:func:`array_functions`).
+    generalized_forces : callable or None
+        ``generalized_forces(t, s, sd, p) -> list`` of the smooth forces tau of (5)
+        (``math`` module), None for a model without them.
+    """
+
+    identity: str
+    coordinates: tuple
+    velocities: tuple
+    parameters: tuple
+    independent_index: tuple
+    dependent_index: tuple
+    constraint_count: int
+    dynamics: Callable
+    constraint_functions: Callable
+    energies: Callable
+    dynamics_many: Callable
+    constraint_functions_many: Callable
+    generalized_forces: Callable | None
+
+
+#: The names a cached entry of a model defines.
+_MODEL_NAMES = ("coordinates", "velocities", "parameters", "independent_index", "dependent_index",
+                "constraint_count", "dynamics", "constraint_functions", "energies", "dynamics_many",
+                "constraint_functions_many", "generalized_forces")
+
+
+def _is_builder(model):
+    """True for a function that builds a model, rather than a model."""
+    return callable(model) and not isinstance(model, MultibodyModel)
+
+
+def _build(builder):
+    """The model a builder function returns, checked."""
+    model = builder()
+    if not isinstance(model, MultibodyModel):
+        raise InputError(f"model: {getattr(builder, '__qualname__', builder)!r} returned "
+                         f"{type(model).__name__}, not a MultibodyModel")
+    return model
+
+
+def _identity(model):
+    """The model's part of the cache key.
+
+    A function of this package that builds a model is known by its name: its
+    definition is this package's source, which is in every key already.  Any
+    other model is known by the sha256 of ``srepr`` of its fields, which spells
+    out every expression and every symbol's assumptions.
+    """
+    if _is_builder(model) and getattr(model, "__module__", "").partition(".")[0] == "closedloop":
+        return f"builder {model.__module__}.{model.__qualname__}"
+    if _is_builder(model):
+        model = _build(model)
+    from sympy import srepr
+
+    fields = (model.coordinates, model.velocities, model.kinetic_energy, model.potential_energy,
+              model.constraints, model.independent, model.parameters, model.generalized_forces, model.time)
+    return f"srepr sha256 {hashlib.sha256(srepr(fields).encode()).hexdigest()}"
+
+
+@lru_cache(maxsize=None)
+def model_functions(model) -> ModelFunctions:
+    """The numeric functions of a model, from the disk cache or generated now (then cached).
+
+    Parameters
+    ----------
+    model : MultibodyModel, or a function without arguments that returns one
+        A function of this package (such as
+        :func:`closedloop.slider_crank.slider_crank_model`) is called only when
+        its functions are not cached yet: a cached model needs no sympy.
+
+    Returns
+    -------
+    ModelFunctions
+        Cached per model (or function) within a run.
+    """
+    identity = _identity(model)
+    made = cached_code("model", (identity,), lambda: _generate(_build(model) if _is_builder(model) else model),
+                       _MODEL_NAMES)
+    return ModelFunctions(identity, **made)
+
+
+def _generate(model):
+    """Derive the model and generate its numeric functions (with sympy), for :func:`model_functions`."""
+    import sympy as sp
+
+    M, p1, f, Phi, gamma, T, Pi = _symbolic_equations(model)
+    args = [model.time, list(model.coordinates), list(model.velocities), list(model.parameters)]
+    flat = [*M, *p1, *f, *Phi, *gamma]
+    forces = model.generalized_forces
+    return {
+        "coordinates": tuple(map(str, model.coordinates)),
+        "velocities": tuple(map(str, model.velocities)),
+        "parameters": tuple(map(str, model.parameters)),
+        "independent_index": tuple(model.independent_index.tolist()),
+        "dependent_index": tuple(model.dependent_index.tolist()),
+        "constraint_count": len(model.constraints),
+        "dynamics": sp.lambdify(args, flat, modules="math", cse=True),
+        "constraint_functions": sp.lambdify(args[1:2] + args[3:], [*f, *Phi], modules="math", cse=True),
+        "energies": sp.lambdify(args[1:], [T, Pi], modules="numpy", cse=True),
+        "dynamics_many": sp.lambdify(args, flat, modules="numpy", cse=True),
+        "constraint_functions_many": sp.lambdify(args[1:2] + args[3:], [*f, *Phi], modules="numpy", cse=True),
+        "generalized_forces": None if forces is None else sp.lambdify(args, list(forces), modules="math"),
+    }
+
+
+def array_functions(model):
     """The numeric functions of :func:`derive`, generated for numpy arrays.
 
     The same sympy expressions as ``DerivedModel.dynamics`` and
@@ -251,20 +394,15 @@ def array_functions(model: MultibodyModel):
     ``math``, so that one call evaluates many states at once (arrays of
     shape (K,) in place of each coordinate).  Entries that do not depend on
     the state come back as plain numbers; :meth:`System.dynamics_many`
-    broadcasts them.  Cached per model.
+    broadcasts them.  Cached with the others (:func:`model_functions`).
 
     Returns
     -------
     (dynamics, constraint_functions) : tuple of callables
         With the signatures of the ``DerivedModel`` attributes of the same names.
     """
-    d = derive(model)
-    args = [model.time, list(model.coordinates), list(model.velocities), list(model.parameters)]
-    flat = [*d.mass_matrix, *d.p1, *d.constraint_vector, *d.jacobian, *d.jacobian_rate_product]
-    dynamics = sp.lambdify(args, flat, modules="numpy", cse=True)
-    constraint_functions = sp.lambdify(args[1:2] + args[3:], [*d.constraint_vector, *d.jacobian],
-                                       modules="numpy", cse=True)
-    return dynamics, constraint_functions
+    functions = model_functions(model)
+    return functions.dynamics_many, functions.constraint_functions_many
 
 
 def _stack(values, size):
@@ -280,7 +418,11 @@ class System:
 
     Parameters
     ----------
-    model : MultibodyModel
+    model : MultibodyModel, or a function without arguments that returns one
+        Given a function (such as :func:`closedloop.slider_crank.slider_crank_model`),
+        the system takes its numeric functions from the disk cache when they are
+        there, and builds the symbolic model (with sympy) only when asked for
+        :attr:`model` or :attr:`derived`, or to generate them.
     parameter_values : mapping of sympy.Symbol or str to float
         A value for every symbol in ``model.parameters``.
     force : SwitchedForce or callable, optional
@@ -288,33 +430,64 @@ class System:
         p1 of (7).  A plain callable ``force(t, s, sd) -> array (n,)`` is taken
         as smooth; a :class:`closedloop.forces.SwitchedForce` declares where it
         switches, so that :func:`closedloop.simulate` stops at every switch.
+
+    Attributes
+    ----------
+    functions : ModelFunctions
+        The model's numeric functions and the names of its symbols.
+    coordinate_names : tuple of str
+        The names of the coordinates s, in order.
     """
 
-    def __init__(self, model: MultibodyModel, parameter_values=None, force=None):
+    def __init__(self, model, parameter_values=None, force=None):
+        if not isinstance(model, MultibodyModel) and not callable(model):
+            raise InputError(f"model: expected a MultibodyModel or a function that returns one, got "
+                             f"{type(model).__name__}")
+        functions = None if isinstance(model, MultibodyModel) else model_functions(model)
+        names = [str(p) for p in model.parameters] if functions is None else list(functions.parameters)
         if parameter_values is None:
             parameter_values = {}
         if not isinstance(parameter_values, Mapping):
             raise InputError(f"parameter_values: expected a mapping of parameter names to numbers, got "
                              f"{type(parameter_values).__name__}")
         by_name = {str(k): v for k, v in parameter_values.items()}
-        missing = [str(p) for p in model.parameters if str(p) not in by_name]
+        missing = [name for name in names if name not in by_name]
         if missing:
             raise InputError(f"parameter_values: missing values for {missing}")
-        values = np.array([finite_number(f"parameter_values[{str(p)!r}]", by_name[str(p)])
-                           for p in model.parameters], dtype=float)
-        self.model = model
-        self.derived = derive(model)
+        values = np.array([finite_number(f"parameter_values[{name!r}]", by_name[name]) for name in names],
+                          dtype=float)
+        self.functions = model_functions(model) if functions is None else functions
+        self._model = model if isinstance(model, MultibodyModel) else None
+        self._builder = None if isinstance(model, MultibodyModel) else model
         self.parameter_values = values
         self._parameter_list = values.tolist()      # the generated math-module code is fastest on floats
-        self.force = as_switched_force(force, len(model.coordinates))
-        self.q_index = model.independent_index
-        self.z_index = model.dependent_index
-        self.n = len(model.coordinates)
-        self.r = len(model.constraints)
+        self.coordinate_names = self.functions.coordinates
+        self.n = len(self.coordinate_names)
+        self.r = self.functions.constraint_count
         self.f = self.n - self.r
+        self.force = as_switched_force(force, self.n)
+        self.q_index = np.array(self.functions.independent_index, dtype=int)
+        self.z_index = np.array(self.functions.dependent_index, dtype=int)
         #: Functions generated for this system (closed forms, determinants), kept by their makers
         #: under their own keys: built once per system, never shared between systems.
         self.generated = {}
+
+    @property
+    def model(self) -> MultibodyModel:
+        """The symbolic model (sympy), built on first use when the system was given a function."""
+        if self._model is None:
+            self._model = _build(self._builder)
+        return self._model
+
+    @property
+    def derived(self) -> DerivedModel:
+        """The model's derivation, :func:`derive` (sympy), on first use."""
+        return derive(self.model)
+
+    @property
+    def model_identity(self) -> str:
+        """What the disk cache knows this system's model by (see :func:`model_functions`)."""
+        return self.functions.identity
 
     # -- numeric building blocks ------------------------------------------------
     def dynamics(self, t, s, sd, mode=None):
@@ -331,7 +504,7 @@ class System:
             by default the branch the state lies on.
         """
         n, r = self.n, self.r
-        values = np.array(self.derived.dynamics(float(t), s.tolist(), sd.tolist(), self._parameter_list))
+        values = np.array(self.functions.dynamics(float(t), s.tolist(), sd.tolist(), self._parameter_list))
         M = values[: n * n].reshape(n, n)
         p1 = values[n * n: n * n + n]
         constraint_values = values[n * n + n: n * n + n + r]
@@ -352,10 +525,8 @@ class System:
         constraint forces do no work while f' = 0).
         """
         tau = np.zeros(self.n)
-        if self.model.generalized_forces is not None:
-            function = self.__dict__.get("_applied_force_function")
-            if function is None:           # hashing the model for the cache costs more than a call: look up once
-                function = self._applied_force_function = _generalized_force_function(self.model)
+        function = self.functions.generalized_forces
+        if function is not None:
             tau += np.array(function(float(t), np.asarray(s, dtype=float).tolist(),
                                      np.asarray(sd, dtype=float).tolist(), self._parameter_list), dtype=float)
         if self.force is not None:
@@ -381,7 +552,7 @@ class System:
         """
         n, r = self.n, self.r
         size = s.shape[1]
-        dynamics = array_functions(self.model)[0]
+        dynamics = self.functions.dynamics_many
         values = _stack(dynamics(t, list(s), list(sd), self._parameter_list), size)
         split = np.cumsum([n * n, n, r, r * n])
         M, p1, constraint_values, Phi, gamma = np.split(values, split)
@@ -390,7 +561,7 @@ class System:
     def constraints_and_jacobian_many(self, s):
         """``(f, Phi_s)`` of (6) and (9) at K configurations: shapes (r, K) and (r, n, K)."""
         size = s.shape[1]
-        values = _stack(array_functions(self.model)[1](list(s), self._parameter_list), size)
+        values = _stack(self.functions.constraint_functions_many(list(s), self._parameter_list), size)
         return values[: self.r], values[self.r:].reshape(self.r, self.n, size)
 
     def constraints(self, s):
@@ -399,7 +570,7 @@ class System:
 
     def constraints_and_jacobian(self, s):
         """``(f(s), Phi_s(s))`` of (6) and (9)."""
-        values = np.array(self.derived.constraint_functions(np.asarray(s, dtype=float).tolist(),
+        values = np.array(self.functions.constraint_functions(np.asarray(s, dtype=float).tolist(),
                                                             self._parameter_list))
         return values[: self.r], values[self.r:].reshape(self.r, self.n)
 
@@ -423,12 +594,12 @@ class System:
 
     def energy(self, s, sd):
         """T + Pi at one state or at many (arrays of shape (n, N))."""
-        T, Pi = self.derived.energies(s, sd, self.parameter_values)
+        T, Pi = self.functions.energies(s, sd, self.parameter_values)
         return np.asarray(T, dtype=float) + np.asarray(Pi, dtype=float)
 
     def kinetic_and_potential_energy(self, s, sd):
         """``(T, Pi)`` at one state or at many (arrays of shape (n, N))."""
-        T, Pi = self.derived.energies(s, sd, self.parameter_values)
+        T, Pi = self.functions.energies(s, sd, self.parameter_values)
         return np.asarray(T, dtype=float), np.asarray(Pi, dtype=float)
 
     def constrained_accelerations(self, t, s, sd, mode=None, p2=None):
@@ -443,10 +614,3 @@ class System:
         M, p1, _, Phi, gamma = self.dynamics(t, s, sd, mode)
         rhs2 = -gamma if p2 is None else p2
         return solve_augmented(M, Phi, p1, rhs2, t)
-
-
-@lru_cache(maxsize=None)
-def _generalized_force_function(model):
-    """The model's smooth generalised forces tau(t, s, s') as a numeric function (math module)."""
-    args = [model.time, list(model.coordinates), list(model.velocities), list(model.parameters)]
-    return sp.lambdify(args, list(model.generalized_forces), modules="math")

@@ -20,7 +20,6 @@ from dataclasses import asdict, dataclass, field, fields
 from functools import lru_cache
 
 import numpy as np
-import sympy as sp
 
 from . import gas_law
 from .errors import InputError
@@ -250,6 +249,8 @@ class GasForce(SwitchedForce):
 
     def expressions(self, mode, time, coordinates, velocities):
         """The force of :meth:`components` on branch ``mode`` as sympy expressions ``[0, 0, F]``."""
+        import sympy as sp
+
         moving_out, beyond_five = mode
         if not moving_out:
             return [0, 0, 0]
@@ -258,6 +259,13 @@ class GasForce(SwitchedForce):
         low, high = gas_law.STROKE
         value = sp.Piecewise((sp.Float(self._sign) * formula, (x >= low) & (x <= high)), (0, True))
         return [0, 0, value]
+
+    def cache_key(self, mode):
+        """The class and what :meth:`expressions` uses on ``mode``: the branch of the law, the coefficients, the sign."""
+        moving_out, beyond_five = mode
+        law = (f"{'outer' if beyond_five else 'inner'} {(self._a, self._b, self._c, self._sign)!r}" if moving_out
+               else "zero")
+        return f"{type(self).__module__}.{type(self).__qualname__} {law}"
 
     def many(self, t, s, sd, mode):
         """The force at K states at once, each on its own branch ``mode[:, j]`` (same formula as a call)."""
@@ -276,7 +284,11 @@ def slider_crank_model() -> MultibodyModel:
     """The symbolic slider-crank of section 3: T, Pi, (27)-(28) and the drive torque.
 
     The gas force is not here: it switches, so it is a :class:`GasForce`.
+    A :class:`SliderCrankSystem` does not call this function when the model's
+    numeric functions are cached (:func:`closedloop.model.model_functions`).
     """
+    import sympy as sp
+
     phi, psi, x = sp.symbols("phi psi x")
     dphi, dpsi, dx = sp.symbols("dphi dpsi dx")
     l1, a1, m1, I1, l2, a2, m2, I2, m3, g = sp.symbols("l1 a1 m1 I1 l2 a2 m2 I2 m3 g")
@@ -322,7 +334,7 @@ class SliderCrankSystem(System):
     """A :class:`~closedloop.model.System` that also remembers its Table 1 data and reading."""
 
     def __init__(self, parameters, reading, values, force):
-        super().__init__(slider_crank_model(), values, force)
+        super().__init__(slider_crank_model, values, force)      # the model itself only when asked for
         self.parameters = parameters
         self.reading = reading
 

@@ -98,7 +98,7 @@ class Formulation:
         return np.concatenate((s, sd))
 
     def state_names(self, system):
-        names = [str(c) for c in system.model.coordinates]
+        names = list(system.coordinate_names)
         return names + [f"d{name}/dt" for name in names]
 
     def unpacker(self, system):

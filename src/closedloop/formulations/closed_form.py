@@ -23,6 +23,11 @@ force can write itself as sympy expressions on that branch
 folded in as well, and the whole first-order right-hand side ``y' = [s', s'']``
 is generated as one function of ``(t, y)``: one Python call per evaluation.
 
+Every generated function is kept on disk (:mod:`closedloop.codecache`) under
+the system's model and parameter values (and the branch, the gains and the
+force's :meth:`~closedloop.forces.SwitchedForce.cache_key` where they are
+folded in), so that a later run needs no sympy.
+
 The closed form is exactly as singular as R of (20): where det Phi_z = 0 it
 divides by zero.  Use :class:`closedloop.formulations.Augmented` or a null-space
 formulation there.
@@ -32,12 +37,11 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-import sympy as sp
-from sympy.printing.pycode import PythonCodePrinter
-
 from dataclasses import dataclass
 
+import numpy as np
+
+from ..codecache import cached_code
 from ..errors import InputError, SingularConfigurationError, at_time
 from .redundant import _Stabilised
 
@@ -49,6 +53,8 @@ MAX_CLOSED_FORM_SIZE = 3
 
 def _symbolic_inverse(matrix):
     """Adjugate over determinant, as sympy expressions (small square matrices only)."""
+    import sympy as sp
+
     if matrix.shape == (1, 1):
         return sp.Matrix([[1 / matrix[0, 0]]])
     return matrix.adjugate() / matrix.det(method="berkowitz")
@@ -70,6 +76,8 @@ def closed_form_expressions(system):
     symbols : tuple
         ``(Q, alpha, beta)``: the list of force symbols and the two gains.
     """
+    import sympy as sp
+
     derived, model = system.derived, system.model
     n, r, f = system.n, system.r, system.f
     if r > MAX_CLOSED_FORM_SIZE or f > MAX_CLOSED_FORM_SIZE:
@@ -137,14 +145,29 @@ def closed_form_accelerations(system):
     callable
     """
     cached = system.generated.get("closed_form")
-    if cached is not None:
-        return cached
+    if cached is None:
+        cached = system.generated["closed_form"] = _from_disk(system, "closed_form", (), _accelerations)
+    return cached
+
+
+def _accelerations(system):
+    """closed_form_accelerations without the caches (sympy)."""
+    import sympy as sp
+
     expressions, (Q, alpha, beta) = closed_form_expressions(system)
     model = system.model
-    function = sp.lambdify([model.time, list(model.coordinates), list(model.velocities), Q, alpha, beta],
-                           expressions, modules="math", cse=True)
-    system.generated["closed_form"] = function
-    return function
+    return sp.lambdify([model.time, list(model.coordinates), list(model.velocities), Q, alpha, beta],
+                       expressions, modules="math", cse=True)
+
+
+def _from_disk(system, kind, parts, generate):
+    """``generate(system)`` through the disk cache (:mod:`closedloop.codecache`).
+
+    Keyed on the system's model and parameter values and on ``parts``, which must
+    name everything else the generated function depends on.
+    """
+    key = (system.model_identity, f"values {system.parameter_values.tolist()!r}", *parts)
+    return cached_code(kind, key, lambda: {"function": generate(system)}, ("function",))["function"]
 
 
 def _singular(t):
@@ -161,6 +184,9 @@ def _generate_rhs(velocities, accelerations, time, coordinates):
     subexpressions are shared, and the state is read with ``y.tolist()``: the
     ``math`` functions are fastest on Python floats.
     """
+    import sympy as sp
+    from sympy.printing.pycode import PythonCodePrinter
+
     n = len(coordinates)
     names = [sp.Symbol(f"_y{i}") for i in range(2 * n)]
     rename = dict(zip(list(coordinates) + list(velocities), names))
@@ -210,12 +236,23 @@ def closed_form_rhs(system, mode, alpha, beta):
     by_mode = system.generated.setdefault("closed_form_rhs", {})
     key = (mode, float(alpha), float(beta))
     if key not in by_mode:
-        by_mode[key] = _folded_rhs(system, mode, float(alpha), float(beta))
+        force = "none" if system.force is None else system.force.cache_key(mode)
+        if force is None:                   # a force without a key: its expressions cannot be kept on disk
+            by_mode[key] = _folded_rhs(system, *key)
+        else:                               # branches whose force has one key share one function
+            by_key = system.generated.setdefault("closed_form_rhs_by_key", {})
+            shared = (force, *key[1:])
+            if shared not in by_key:
+                by_key[shared] = _from_disk(system, "closed_form_rhs", (f"force, alpha, beta {shared!r}",),
+                                            lambda system: _folded_rhs(system, *key))
+            by_mode[key] = by_key[shared]
     return by_mode[key]
 
 
 def _folded_rhs(system, mode, alpha, beta):
     """closed_form_rhs without the cache per branch (branches with the same force share a function)."""
+    import sympy as sp
+
     model = system.model
     if system.force is None:
         force = [sp.Integer(0)] * system.n
@@ -247,11 +284,7 @@ def partition_determinant(system):
         return None
     cached = system.generated.get("partition_determinant")
     if cached is None:
-        model = system.model
-        values = dict(zip(model.parameters, (sp.Float(v) for v in system.parameter_values.tolist())))
-        Phi_z = system.derived.jacobian[:, list(system.z_index)]
-        det = sp.sympify(Phi_z.det(method="berkowitz")).xreplace(values)
-        function = sp.lambdify([list(model.coordinates)], det, modules="numpy")
+        function = _from_disk(system, "partition_determinant", (), _determinant)
 
         def cached(s):
             value = np.asarray(function(list(s)), dtype=float)
@@ -259,6 +292,17 @@ def partition_determinant(system):
 
         system.generated["partition_determinant"] = cached
     return cached
+
+
+def _determinant(system):
+    """det Phi_z as a numpy function ``function(list(s))`` (sympy), for partition_determinant."""
+    import sympy as sp
+
+    model = system.model
+    values = dict(zip(model.parameters, (sp.Float(v) for v in system.parameter_values.tolist())))
+    Phi_z = system.derived.jacobian[:, list(system.z_index)]
+    det = sp.sympify(Phi_z.det(method="berkowitz")).xreplace(values)
+    return sp.lambdify([list(model.coordinates)], det, modules="numpy")
 
 
 @dataclass(frozen=True)

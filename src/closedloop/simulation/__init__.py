@@ -163,7 +163,7 @@ def _result(run, start, with_multipliers):
         sticking_intervals=run.sticking_intervals, stopped_at=run.stopped_at,
         partition_singularities=run.partition_singularities, switching=options.switching,
         formulation=formulation.name, method=options.method_name, rtol=options.rtol, atol=options.atol,
-        coordinate_names=tuple(str(c) for c in system.model.coordinates),
+        coordinate_names=tuple(system.coordinate_names),
         step_sizes=np.asarray(run.step_sizes, dtype=float), work=work_done,
         step_constraint_error=step_f, step_velocity_constraint_error=step_fd,
         warnings=residual_warnings(largest_f, largest_fd, speed, options.rtol, options.atol),

@@ -265,5 +265,5 @@ class PathWatch:
                                   max(self.largest_residuals[1], float(np.sqrt(np.max(np.sum(velocity ** 2, 0))))))
         found = find_change_point(self.system, times, s, sd, failed_at, evaluated=(residuals, jacobians))
         if found is not None:
-            raise change_point_error(found, [str(c) for c in self.system.model.coordinates],
+            raise change_point_error(found, list(self.system.coordinate_names),
                                      self.options.method_name)

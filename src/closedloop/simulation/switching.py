@@ -36,9 +36,8 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-import sympy as sp
-from sympy.calculus.util import periodicity
 
+from ..codecache import cached_code
 from ..errors import IntegrationError
 
 __all__ = ["RATE_STEP", "SURFACE", "MIN_PROGRESS", "MAX_STALLS", "RELEASE_XTOL", "switching_rate", "decide",
@@ -225,14 +224,29 @@ def forcing_period(system):
     on every branch, with the parameter values in.  Returns 0.0 when none depends
     on time (an autonomous system), the period P > 0 when all are periodic in t
     with a common period, and None when that is not known (a force without a
-    sympy form, or a forcing that is not periodic).  Computed once per system.
+    sympy form, or a forcing that is not periodic).  Computed once per system, with
+    sympy; kept on disk (:mod:`closedloop.codecache`) under the model, the force's
+    :meth:`~closedloop.forces.SwitchedForce.cache_key` and the parameter values,
+    when the force has a key.
     """
     if "forcing_period" not in system.generated:
-        system.generated["forcing_period"] = _forcing_period(system)
+        force = system.force
+        keys = () if force is None else tuple(
+            force.cache_key(mode) for mode in itertools.product((False, True), repeat=len(force.switch_names)))
+        if None not in keys:
+            parts = (system.model_identity, f"force {keys!r}", f"values {system.parameter_values.tolist()!r}")
+            period = cached_code("forcing_period", parts, lambda: {"period": _forcing_period(system)},
+                                 ("period",))["period"]
+        else:
+            period = _forcing_period(system)
+        system.generated["forcing_period"] = period
     return system.generated["forcing_period"]
 
 
 def _forcing_period(system):
+    import sympy as sp
+    from sympy.calculus.util import periodicity
+
     model = system.model
     time = model.time
     values = dict(zip(model.parameters, system.parameter_values.tolist()))

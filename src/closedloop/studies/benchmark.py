@@ -75,8 +75,8 @@ from pathlib import Path
 
 import numpy as np
 import scipy
-import sympy
 
+from ..codecache import sympy_version
 from ..errors import ClosedLoopError, InputError
 from .. import __version__
 from .. import methods as method_names
@@ -235,7 +235,7 @@ def _provenance(settings):
         "settings": settings.as_dict(),
         "machine": {"platform": platform.platform(), "machine": platform.machine(),
                     "cpu_count": os.cpu_count(), "python": sys.version.split()[0],
-                    "numpy": np.__version__, "scipy": scipy.__version__, "sympy": sympy.__version__},
+                    "numpy": np.__version__, "scipy": scipy.__version__, "sympy": sympy_version()},
     }
 
 
