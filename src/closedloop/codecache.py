@@ -13,7 +13,7 @@ Folder
 
 Key
     sha256 of the kind of code, the source of the whole package (every ``*.py`` below it,
-    :func:`source_fingerprint`), the versions of sympy and Python, and the caller's own
+    :func:`source_fingerprint`), the versions of sympy, Python and numpy, and the caller's own
     parts (the model's definition, the force's data, the parameter values). The key names
     the file, and the file states its key and the sha256 of its text, both checked at
     every load: a change of any of them is a different file, so a cached function is never
@@ -45,6 +45,8 @@ import textwrap
 import types
 from functools import lru_cache
 from pathlib import Path
+
+import numpy
 
 __all__ = ["ENVIRONMENT_VARIABLE", "cache_folder", "source_fingerprint", "sympy_version", "cache_key",
            "cached_code", "module_text"]
@@ -111,7 +113,7 @@ def sympy_version():
 
 
 def cache_key(kind, parts):
-    """sha256 (hex) naming the code of ``kind`` for ``parts``, this package's source, sympy and Python.
+    """sha256 (hex) naming the code of ``kind`` for ``parts``, this package's source, sympy, Python and numpy.
 
     Parameters
     ----------
@@ -121,7 +123,7 @@ def cache_key(kind, parts):
         Everything else the generated code depends on.
     """
     digest = hashlib.sha256()
-    for part in (kind, source_fingerprint(), sympy_version(), sys.version, *parts):
+    for part in (kind, source_fingerprint(), sympy_version(), sys.version, numpy.__version__, *parts):
         digest.update(str(part).encode() + b"\0")
     return digest.hexdigest()
 
@@ -157,9 +159,12 @@ def cached_code(kind, parts, generate, names):
         return loaded
     made = generate()
     text = module_text(key, made)
-    if text is None:
+    try:
+        namespace = None if text is None else _execute(text, path, key)
+    except Exception:                   # noqa: BLE001 - the text does not run: use what generate() made
+        namespace = None
+    if namespace is None or any(name not in namespace for name in names):
         return {name: made[name] for name in names}
-    namespace = _execute(text, path, key)
     _write(folder, path, text)
     return {name: namespace[name] for name in names}
 
