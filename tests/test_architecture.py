@@ -10,6 +10,8 @@ module level or inside a function, and resolves it to the full module name it re
   ``slider_crank``, ``four_bar``, ``studies``, ``plotting`` or ``cli``.
 - ``studies/`` never imports ``plotting``, ``cli`` or matplotlib: a study computes, a figure
   draws, so a figure change never touches the benchmark's source fingerprint.
+- No module imports sympy, matplotlib or bokeh when it is imported (only inside the functions
+  that derive or draw): ``import closedloop`` and a run with cached generated code need none.
 """
 
 import ast
@@ -39,15 +41,27 @@ def module_name(path):
     return ".".join((PACKAGE, *parts))
 
 
-def imports_of(source, module, is_package=False):
+def _nodes(tree, at_import):
+    """Every node below ``tree`` (``ast.walk``); with ``at_import``, none inside a function body."""
+    pending = [tree]
+    while pending:
+        node = pending.pop()
+        yield node
+        if at_import and isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+            continue
+        pending.extend(ast.iter_child_nodes(node))
+
+
+def imports_of(source, module, is_package=False, at_import=False):
     """Every import in ``source`` as ``(line, statement, full names reached)``, wherever it stands.
 
     A relative import is resolved against ``module``; ``from X import a`` reaches ``X`` and
     ``X.a`` (a may be a submodule); ``importlib.import_module("...")`` with a constant counts too.
+    With ``at_import``, only the imports that run when the module is imported (none in a function).
     """
     package = module if is_package else module.rpartition(".")[0]
     found = []
-    for node in ast.walk(ast.parse(source)):
+    for node in _nodes(ast.parse(source), at_import):
         if isinstance(node, ast.Import):
             found.append((node.lineno, ast.unparse(node), [alias.name for alias in node.names]))
         elif isinstance(node, ast.ImportFrom):
@@ -61,7 +75,7 @@ def imports_of(source, module, is_package=False):
         elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
               and node.func.attr == "import_module" and node.args and isinstance(node.args[0], ast.Constant)):
             found.append((node.lineno, ast.unparse(node), [str(node.args[0].value)]))
-    return found
+    return sorted(found)
 
 
 def reaches(name, target):
@@ -131,6 +145,29 @@ def test_the_scan_resolves_relative_imports_in_a_package_init():
     assert (line, statement, names[0]) == (1, "from .dop853 import run", "closedloop.simulation.dop853")
     [(_, _, names)] = imports_of("from .dop853 import run", "closedloop.simulation.runner")
     assert names[0] == "closedloop.simulation.dop853"
+
+
+#: Imported only inside the functions that need them, never when a module is imported: sympy (a
+#: derivation; the generated code is cached, see closedloop.codecache), matplotlib and bokeh (a figure).
+IMPORTED_ONLY_WHEN_NEEDED = ("sympy", "matplotlib", "bokeh")
+
+
+@pytest.mark.parametrize("path", MODULES, ids=module_name)
+def test_no_module_imports_sympy_or_a_figure_library_when_it_is_imported(path):
+    found = [f"line {line}: {statement}"
+             for line, statement, names in imports_of(path.read_text(encoding="utf-8"), module_name(path),
+                                                      path.name == "__init__.py", at_import=True)
+             if any(reaches(name, heavy) for name in names for heavy in IMPORTED_ONLY_WHEN_NEEDED)]
+    assert not found, "imported with the module (import it inside the function that needs it): " + "; ".join(found)
+
+
+def test_the_scan_at_import_leaves_out_function_bodies_only():
+    source = ("import sympy\nclass A:\n    import matplotlib\n    def f(self):\n        import bokeh\n"
+              "def g():\n    import numpy\n")
+    names = {name for _, _, names in imports_of(source, "closedloop.model", at_import=True) for name in names}
+    assert names == {"sympy", "matplotlib"}
+    assert {name for _, _, names in imports_of(source, "closedloop.model") for name in names} == \
+        {"sympy", "matplotlib", "bokeh", "numpy"}
 
 
 # -- one home for each list of names ------------------------------------------------------------
