@@ -19,6 +19,11 @@ It prints, for each version,
 
 Then whether the after version's ``simulate --case 2`` imported sympy or matplotlib.
 The cache folder is a temporary one (``CLOSEDLOOP_CACHE_DIR``), removed at the end.
+
+Bytecode: an installed package imports its modules from cached bytecode. So that both versions
+are measured that way without writing ``__pycache__`` folders into any source tree, the commands
+run with bytecode written to a temporary ``PYTHONPYCACHEPREFIX`` (the warm-up run fills it),
+whatever ``PYTHONDONTWRITEBYTECODE`` says; ``--no-bytecode`` compiles every import instead.
 """
 
 from __future__ import annotations
@@ -50,9 +55,15 @@ def unpack(revision, folder):
     return Path(folder) / "src"
 
 
+#: Environment of every command (set by main): the cache folder and how bytecode is kept.
+ENVIRONMENT = {}
+
+
 def run(arguments, source, cache, check=True):
     """Wall time [s] of ``python arguments`` with ``source`` first on the path; and its stderr."""
-    environment = dict(os.environ, PYTHONPATH=str(source), CLOSEDLOOP_CACHE_DIR=str(cache))
+    environment = dict(os.environ, PYTHONPATH=str(source), CLOSEDLOOP_CACHE_DIR=str(cache), **ENVIRONMENT)
+    if "PYTHONPYCACHEPREFIX" in ENVIRONMENT:
+        environment.pop("PYTHONDONTWRITEBYTECODE", None)
     start = time.perf_counter()
     done = subprocess.run([sys.executable, *arguments], env=environment, capture_output=True, text=True,
                           check=check)
@@ -91,14 +102,22 @@ def main():
     parser.add_argument("--before", default=BEFORE, help=f"git revision of the 'before' version (default {BEFORE})")
     parser.add_argument("--repeats", type=int, default=5, help="runs of each command, best taken (default 5)")
     parser.add_argument("--top", type=int, default=12, help="importtime entries shown (default 12)")
+    parser.add_argument("--no-bytecode", action="store_true", help="compile every import (no bytecode cache)")
     args = parser.parse_args()
 
     with tempfile.TemporaryDirectory(prefix="cli-time-") as folder:
         cache = Path(folder) / "cache"
+        if args.no_bytecode:
+            ENVIRONMENT["PYTHONDONTWRITEBYTECODE"] = "1"
+        else:
+            ENVIRONMENT["PYTHONPYCACHEPREFIX"] = str(Path(folder) / "bytecode")
+        print("bytecode: " + ("none, every import compiled" if args.no_bytecode else
+                              "cached in a temporary PYTHONPYCACHEPREFIX, as an installed package has it"))
         versions = {f"before ({args.before})": unpack(args.before, Path(folder) / "before"),
                     "after (this checkout)": ROOT / "src"}
-        for source in versions.values():                      # fill the cache (the old version has none)
+        for source in versions.values():       # fill the caches of code and bytecode (the old version has none)
             run(["-c", SIMULATE, "simulate", "--case", "2"], source, cache)
+        run(["-c", "import scipy.integrate"], ROOT / "src", cache)
 
         for label, source in versions.items():
             report_imports(label, import_times(source, cache), args.top)
