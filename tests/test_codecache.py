@@ -181,6 +181,31 @@ def test_a_model_is_known_by_its_builder_or_by_every_symbol_and_expression():
     assert len({_identity(base), _identity(heavier), _identity(positive)}) == 3
 
 
+class Wobble(sp.Function):
+    """sin of its argument, printed by methods of its own: code that srepr does not show."""
+
+    def fdiff(self, argindex=1):
+        return sp.cos(self.args[0])
+
+    def _pythoncode(self, printer):
+        return f"sin({printer._print(self.args[0])})"
+
+    _numpycode = _pythoncode
+
+
+def test_a_model_with_a_function_class_of_its_own_is_not_kept_on_disk(cache):
+    theta, y, m, g = sp.symbols("theta y m g")
+    model = dataclasses.replace(pendulum_model(), potential_energy=m * g * y + Wobble(theta))
+    assert _identity(model) is None and _identity(pendulum_model()) is not None
+    functions = model_functions.__wrapped__(model)
+    assert functions.identity is None
+    assert not list(cache.glob("*.py"))
+    T, Pi = functions.energies(np.array([0.5, 0.0, 0.0]), np.zeros(3), np.array([2.0, 1.5, 9.81]))
+    assert (T, Pi) == (0.0, math.sin(0.5))
+    system = System(model, {"m": 2.0, "l": 1.5, "g": 9.81})
+    assert switching.forcing_period(system) == 0.0 and not list(cache.glob("*.py"))
+
+
 # -- failures: generate again, never an error, never a wrong function --------------------------------
 def _corrupt(path, how):
     text = path.read_text()

@@ -135,7 +135,8 @@ def cached_code(kind, parts, generate, names):
     ----------
     kind : str
     parts : tuple of str
-        See :func:`cache_key`.
+        See :func:`cache_key`.  A part None says that the code cannot be named by a
+        key (it depends on something outside the key): it is generated, not cached.
     generate : callable
         ``generate() -> dict`` of name to generated function (made by ``lambdify``, or
         with its source text as attribute ``source``) or constant (None, bool, int,
@@ -151,6 +152,9 @@ def cached_code(kind, parts, generate, names):
         that is written to the cache (or, if some function cannot be written as a
         module, straight from ``generate``, and nothing is cached).
     """
+    if any(part is None for part in parts):
+        made = generate()
+        return {name: made[name] for name in names}
     key = cache_key(kind, parts)
     folder = cache_folder()
     path = folder / f"{kind}-{key[:32]}.py"

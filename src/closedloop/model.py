@@ -268,8 +268,9 @@ class ModelFunctions:
 
     Attributes
     ----------
-    identity : str
-        What the cache knows the model by (see :func:`model_functions`).
+    identity : str or None
+        What the disk cache knows the model by (see :func:`model_functions`); None
+        for a model whose code is not kept on disk.
     coordinates, velocities, parameters : tuple of str
         The names of the model's symbols, in order.
     independent_index, dependent_index : tuple of int
@@ -327,17 +328,23 @@ def _identity(model):
     A function of this package that builds a model is known by its name: its
     definition is this package's source, which is in every key already.  Any
     other model is known by the sha256 of ``srepr`` of its fields, which spells
-    out every expression and every symbol's assumptions.
+    out every expression and every symbol's assumptions; unless an expression
+    uses a class defined outside sympy (a function of one's own, whose code
+    ``srepr`` does not show): then None, and its code is not kept on disk.
     """
     if _is_builder(model) and getattr(model, "__module__", "").partition(".")[0] == "closedloop":
         return f"builder {model.__module__}.{model.__qualname__}"
     if _is_builder(model):
         model = _build(model)
-    from sympy import srepr
+    import sympy as sp
 
+    fields = sp.Tuple(*model.coordinates, *model.velocities, model.kinetic_energy, model.potential_energy,
+                      *model.constraints, *model.parameters, *(model.generalized_forces or ()), model.time)
+    if any(not (type(node).__module__ or "").startswith("sympy.") for node in sp.preorder_traversal(fields)):
+        return None
     fields = (model.coordinates, model.velocities, model.kinetic_energy, model.potential_energy,
               model.constraints, model.independent, model.parameters, model.generalized_forces, model.time)
-    return f"srepr sha256 {hashlib.sha256(srepr(fields).encode()).hexdigest()}"
+    return f"srepr sha256 {hashlib.sha256(sp.srepr(fields).encode()).hexdigest()}"
 
 
 @lru_cache(maxsize=None)
@@ -354,7 +361,8 @@ def model_functions(model) -> ModelFunctions:
     Returns
     -------
     ModelFunctions
-        Cached per model (or function) within a run.
+        Cached per model (or function) within a run; on disk unless the model
+        uses a class defined outside sympy (see :func:`_identity`).
     """
     identity = _identity(model)
     made = cached_code("model", (identity,), lambda: _generate(_build(model) if _is_builder(model) else model),
@@ -486,7 +494,7 @@ class System:
 
     @property
     def model_identity(self) -> str:
-        """What the disk cache knows this system's model by (see :func:`model_functions`)."""
+        """What the disk cache knows this system's model by (see :func:`model_functions`), or None."""
         return self.functions.identity
 
     # -- numeric building blocks ------------------------------------------------
