@@ -12,7 +12,7 @@ It prints, for each version,
 
 1. the top entries of ``python -X importtime -c "import closedloop.cli"`` (by cumulative
    time, from the fastest of three imports) and its self time summed per top-level package;
-2. the wall time of ``closedloop simulate --case 2`` (a new interpreter, import included),
+2. the wall and CPU time of ``closedloop simulate --case 2`` (a new interpreter, import included),
    best of ``--repeats`` runs with a warm cache (one run first fills it), the two versions
    taking turns; and, as floors measured in the same turns, an interpreter that only imports
    ``scipy.integrate`` (which ``solve_ivp`` needs) and one that does nothing.
@@ -32,6 +32,7 @@ import argparse
 import collections
 import io
 import os
+import resource
 import subprocess
 import sys
 import tarfile
@@ -60,21 +61,28 @@ ENVIRONMENT = {}
 
 
 def run(arguments, source, cache, check=True):
-    """Wall time [s] of ``python arguments`` with ``source`` first on the path; and its stderr."""
+    """``(wall [s], CPU [s], stderr)`` of ``python arguments`` with ``source`` first on the path.
+
+    CPU is the child's user + system time: what the command costs, less sensitive than the
+    wall time to other processes sharing the cores.
+    """
     environment = dict(os.environ, PYTHONPATH=str(source), CLOSEDLOOP_CACHE_DIR=str(cache), **ENVIRONMENT)
     if "PYTHONPYCACHEPREFIX" in ENVIRONMENT:
         environment.pop("PYTHONDONTWRITEBYTECODE", None)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     done = subprocess.run([sys.executable, *arguments], env=environment, capture_output=True, text=True,
                           check=check)
-    return time.perf_counter() - start, done.stderr
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), done.stderr
 
 
 def import_times(source, cache):
     """``[(cumulative us, self us, module)]`` of the fastest of three ``import closedloop.cli``."""
     best = None
     for _ in range(3):
-        _, err = run(["-X", "importtime", "-c", "import closedloop.cli"], source, cache)
+        _, _, err = run(["-X", "importtime", "-c", "import closedloop.cli"], source, cache)
         rows = []
         for line in err.splitlines():
             fields = line.split("|")
@@ -126,20 +134,22 @@ def main():
                     for label, source in versions.items()}
         commands["floor: import scipy.integrate"] = (["-c", "import scipy.integrate"], ROOT / "src")
         commands["floor: python -c pass"] = (["-c", "pass"], ROOT / "src")
-        best = {label: float("inf") for label in commands}
+        best = {label: [float("inf"), float("inf")] for label in commands}
         for _ in range(args.repeats):                         # interleaved: every command in every turn
             for label, (arguments, source) in commands.items():
-                best[label] = min(best[label], run(arguments, source, cache)[0])
-        print(f"\nclosedloop simulate --case 2, wall time, warm cache, best of {args.repeats} (interleaved):")
-        for label, value in best.items():
-            print(f"  {label:32s} {value:6.3f} s")
-        before, after = (best[label] for label in versions)
-        print(f"  after / before = {after / before:.2f}")
+                wall, cpu, _ = run(arguments, source, cache)
+                best[label] = [min(best[label][0], wall), min(best[label][1], cpu)]
+        print(f"\nclosedloop simulate --case 2, warm cache, best of {args.repeats} (interleaved):")
+        print(f"  {'':32s} {'wall':>7s}  {'CPU':>7s}")
+        for label, (wall, cpu) in best.items():
+            print(f"  {label:32s} {wall:6.3f} s  {cpu:6.3f} s")
+        (before_wall, before_cpu), (after_wall, after_cpu) = (best[label] for label in versions)
+        print(f"  after / before = {after_wall / before_wall:.2f} (wall), {after_cpu / before_cpu:.2f} (CPU)")
 
         probe = ("import sys, io, contextlib\nfrom closedloop.cli import main\n"
                  "with contextlib.redirect_stdout(io.StringIO()): main(['simulate', '--case', '2'])\n"
                  "print('sympy' in sys.modules, 'matplotlib' in sys.modules, file=sys.stderr)")
-        _, err = run(["-c", probe], ROOT / "src", cache)
+        _, _, err = run(["-c", probe], ROOT / "src", cache)
         sympy_loaded, matplotlib_loaded = err.split()[-2:]
         print(f"\nafter, simulate --case 2 with a warm cache: sympy imported: {sympy_loaded}, "
               f"matplotlib imported: {matplotlib_loaded}")
