@@ -1,5 +1,6 @@
 """Shared fixtures: the slider-crank of the paper and a pendulum with a known ODE."""
 
+import atexit
 import math
 import os
 import shutil
@@ -14,18 +15,15 @@ from closedloop.four_bar import four_bar_model
 from closedloop.slider_crank import slider_crank_system
 
 
-
 def pytest_configure(config):
     """Generated code goes to a fresh temporary cache folder (closedloop.codecache), never to ~/.cache.
 
-    Set before any test is collected, so the commands that tests start inherit it too.
+    Set before any test is collected, so the commands that tests start inherit it too; removed
+    when the session's process ends.
     """
-    config.closedloop_cache = tempfile.mkdtemp(prefix="closedloop-test-cache-")
-    os.environ["CLOSEDLOOP_CACHE_DIR"] = config.closedloop_cache
-
-
-def pytest_unconfigure(config):
-    shutil.rmtree(getattr(config, "closedloop_cache", ""), ignore_errors=True)
+    folder = tempfile.mkdtemp(prefix="closedloop-test-cache-")
+    os.environ["CLOSEDLOOP_CACHE_DIR"] = folder
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
 
 
 @pytest.fixture(scope="session")
