@@ -47,4 +47,4 @@ def four_bar_model() -> MultibodyModel:
 
 def parameter_values(system):
     """The parameter values of a :class:`~closedloop.model.System` as a dict keyed by name."""
-    return dict(zip(map(str, system.model.parameters), system.parameter_values.tolist()))
+    return dict(zip(system.functions.parameters, system.parameter_values.tolist()))

@@ -187,7 +187,7 @@ class WorkHistory:
 
 
 def _values(system):
-    return dict(zip(map(str, system.model.parameters), system.parameter_values))
+    return dict(zip(system.functions.parameters, system.parameter_values))
 
 
 def non_conservative_work(system, result):
