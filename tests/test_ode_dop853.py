@@ -137,12 +137,12 @@ def test_stages_recomputed_from_the_step_start_give_the_compiled_codes_step_end_
 
 
 def steps_holding(outputs, t0, steps, t_stop=None):
-    """How many of the steps (sizes ``steps`` from t0, then one to ``t_stop``) hold an output in (start, end]."""
+    """How many of the steps (sizes ``steps`` from t0, then one to ``t_stop``) hold an output strictly inside."""
     ends = t0 + np.cumsum(steps)
     starts, ends = np.append(t0, ends[:-1]), ends
     if t_stop is not None:
         starts, ends = np.append(starts, ends[-1] if ends.size else t0), np.append(ends, t_stop)
-    return int(sum(np.any((outputs > a) & (outputs <= b)) for a, b in zip(starts, ends)))
+    return int(sum(np.any((outputs > a) & (outputs < b)) for a, b in zip(starts, ends)))
 
 
 def test_outputs_inside_steps_and_before_a_switch_follow_the_exact_solution():
@@ -162,6 +162,15 @@ def test_outputs_inside_steps_and_before_a_switch_follow_the_exact_solution():
     assert np.max(np.abs(plain.y[0] - np.cos(plain.t))) < 3e-11
     # three extra right-hand sides per step holding an output (the crossing step too): the stages are the code's
     assert seg.nfev - plain.nfev == 3 * steps_holding(seg.t, 0.0, plain.steps, plain.t_stop)
+
+
+def test_outputs_at_step_ends_cost_nothing_and_are_the_codes_states():
+    options = dict(rtol=1e-10, atol=1e-10, switching=lambda t, y: [], directions=[])
+    plain = integrate_segment(oscillator, 0.0, np.array([1.0, 0.0]), 5.0, **options)
+    ends = plain.t[[0, 3, -1]]                              # the start, a step end, t_end
+    seg = integrate_segment(oscillator, 0.0, np.array([1.0, 0.0]), 5.0, outputs=ends, **options)
+    assert seg.nfev == plain.nfev
+    assert np.array_equal(seg.t, ends) and np.array_equal(seg.y, plain.y[:, [0, 3, -1]])
 
 
 def test_a_right_hand_side_that_reuses_its_array_makes_the_steps_be_recomputed():
