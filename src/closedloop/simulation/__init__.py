@@ -146,11 +146,13 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     reference integrated from each step's start, the largest error of the
     outputs was, in units of ``atol + rtol |y|``: RK45 0.67 (0.06 at its step
     ends), RK23 7.4 (7.4), DOP853 0.10 (0.001), Radau 0.57 (0.002), BDF 0.79
-    (0.78), LSODA 1.6 (1.6), ode.dop853 0.11 (0.002).  The outputs themselves
-    cost a little process time each (interpolation, unpacking, constraint
-    errors), which a run this short feels: with ode.dop853 the 10 000 outputs
-    took about 2.5 times as long as the run without them (3.5 times its process
-    time in all), with LSODA about 3 times.
+    (0.78), LSODA 1.6 (1.6), ode.dop853 0.11 (0.002).  Process time is
+    another matter: each output costs some (interpolation, unpacking, constraint
+    errors), and with DOP853 and ode.dop853 so does each step that holds one.
+    ode.dop853 pays about what DOP853 pays, which is a larger share of its
+    cheaper run: with 10 000 outputs a run took 2.7 times as long as without
+    them with ode.dop853 (2.3 times over 20 s), 2.1 times with DOP853 (1.5
+    over 20 s), and 4 times with LSODA.
 
     The fixed-step :func:`closedloop.fixed_step.rk4` is not one of these
     methods and takes no output times: its outputs are its steps.

@@ -145,15 +145,16 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     """
     y0 = np.asarray(y0, dtype=float)
     failure = []                            # an exception raised inside the compiled code's callbacks
-    counted, evaluations = _counting(rhs, max_nfev, failure)
+    calls = None if outputs is None else []  # (t, f) of every call, for the stages of the steps
+    counted, evaluations = _counting(rhs, max_nfev, failure, calls)
     directions = tuple(float(d) for d in directions)
-    dense = None if outputs is None else _DenseOutputs(counted, outputs, t0, y0, t_end)
+    dense = None if outputs is None else _DenseOutputs(counted, calls, outputs, t0, y0, t_end)
     watch = _StepWatch(switching, directions, t0, y0, first_step, keep_steps=outputs is None, failure=failure,
                        dense=dense)
     with warnings.catch_warnings():          # the code's warnings become the errors raised below
         warnings.simplefilter("ignore", UserWarning)
         if t_end > t0:
-            solver = ode(counted if dense is None else dense.record).set_integrator(
+            solver = ode(counted).set_integrator(
                 "dop853", rtol=rtol, atol=atol, nsteps=nsteps, first_step=min(watch.last_step, t_end - t0),
                 max_step=max_step)
             solver.set_solout(watch.solout)
@@ -187,15 +188,29 @@ def _with_path(error, watch, failed_at=None):
     return error
 
 
-def _counting(rhs, max_nfev, failure):
+def _counting(rhs, max_nfev, failure, calls=None):
     """``(counted, evaluations)``: rhs that counts its calls (and stops at max_nfev), and the count.
 
     The compiled caller cannot propagate an exception: a failing call stores it
-    in ``failure`` and returns NaN, and the segment re-raises it.
+    in ``failure`` and returns NaN, and the segment re-raises it.  With a list
+    ``calls``, every call appends ``(t, f)`` to it (for :class:`_DenseOutputs`).
     """
     count = 0
 
-    if max_nfev == math.inf:
+    if calls is not None:
+        def counted(t, y):
+            nonlocal count
+            count += 1
+            try:
+                if count > max_nfev:
+                    raise BudgetExceeded(t)
+                f = rhs(t, y)
+            except Exception as error:
+                failure.append(_failed_at(t, error))
+                f = [math.nan] * y.size
+            calls.append((t, f))
+            return f
+    elif max_nfev == math.inf:
         def counted(t, y):
             nonlocal count
             count += 1
@@ -311,8 +326,8 @@ def _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failur
 class _DenseOutputs:
     """The requested output times of a segment, from DOP853's continuous extension of the accepted steps.
 
-    The compiled code is given :meth:`record` as its right-hand side: every call
-    ``(t, f)`` since the last accepted step is kept.  When ``solout`` reports an
+    The compiled code's right-hand side appends every call ``(t, f)`` to ``calls``
+    (see :func:`_counting`); the calls since the last accepted step are kept.  When ``solout`` reports an
     accepted step from ``ta`` to ``tb``, its last twelve calls are the eleven
     stages at ``ta + c_i h`` (i = 2..12) and f at the new step end (the code's
     FSAL evaluation); the step's first stage is f at ``ta``, the previous step's
@@ -328,6 +343,8 @@ class _DenseOutputs:
     ----------
     rhs : callable
         The counted right-hand side, for the extra stages.
+    calls : list
+        Where ``rhs`` appends its calls.
     times : array_like
         The requested output times; those outside ``[t0, t_end]`` are ignored.
     t0, y0 : float, ndarray
@@ -335,25 +352,19 @@ class _DenseOutputs:
     t_end : float
     """
 
-    def __init__(self, rhs, times, t0, y0, t_end):
+    def __init__(self, rhs, calls, times, t0, y0, t_end):
         times = np.asarray(times, dtype=float)
         if times.ndim != 1 or np.any(np.diff(times) <= 0):
             times = np.unique(times)
         self.rhs = rhs
         self.times = times[(times >= t0) & (times <= t_end)]
         self.next = 0                       # index of the first time not yet output
-        self.calls = []                     # (t, f) of the code's calls since the last accepted step
+        self.calls = calls                  # (t, f) of the calls since the last accepted step
         self.f_start = None                 # f at the start of the current step
         self.crossing = None                # the calls and f_start of the step that crossed a switch
         self.out_t, self.out_y = [], []
         if self.times.size and self.times[0] == t0:
             self._emit(self.times[:1], np.asarray(y0, dtype=float)[:, None].copy())
-
-    def record(self, t, y):
-        """The right-hand side for the compiled code: ``rhs(t, y)``, kept."""
-        f = self.rhs(t, y)
-        self.calls.append((t, f))
-        return f
 
     def start(self, t0):
         """At the code's ``solout`` call at the start point: its first call was f at ``t0``."""
@@ -414,7 +425,8 @@ class _DenseOutputs:
                 error.t = ta
                 raise error
         states = interpolate(continuous_extension(self.rhs, ta, ya, tb, yb, stages), ya, (times - ta) / h)
-        states[:, times == tb] = yb[:, None]    # a step end: the code's own state
+        if times[-1] == tb:                 # a step end: the code's own state
+            states[:, -1] = yb
         self._emit(times, states)
 
 
@@ -423,19 +435,40 @@ class _DenseOutputs:
 _STAGES = DOP853.n_stages                                         # 12
 _A, _B, _C = DOP853.A, DOP853.B, DOP853.C
 _A_EXTRA, _C_EXTRA, _D = DOP853.A_EXTRA, DOP853.C_EXTRA, DOP853.D
+_ABS_B = np.abs(_B)
+#: (row, a_row[:row], c) of the extension's three extra stages.
+_EXTRA_STAGES = [(s, a[:s].copy(), c) for s, (a, c) in enumerate(zip(_A_EXTRA, _C_EXTRA), start=_STAGES + 1)]
+_EPS = np.finfo(float).eps
 #: A step end rebuilt from the stages may differ from the code's by this many units of round-off
 #: of the sum ``ya + h sum b_i k_i`` (the code sums in another order, and its h differs from
 #: ``tb - ta`` by round-off in tb).
 _ROUND_OFF_UNITS = 64.0
 
 
+def _extension_form():
+    """``(F_of_K, F_of_Y)``: Hairer's ``contd8`` coefficients as ``F = h F_of_K K + F_of_Y [ya, yb]``.
+
+    ``F0 = yb - ya``, ``F1 = h k_1 - F0``, ``F2 = 2 F0 - h (k_1 + k_13)``, ``F3..F6 = h D K``.
+    """
+    F_of_K = np.zeros((7, _STAGES + 4))
+    F_of_K[1, 0] = 1.0
+    F_of_K[2, [0, _STAGES]] = -1.0
+    F_of_K[3:] = _D
+    F_of_Y = np.zeros((7, 2))
+    F_of_Y[:3] = [[-1.0, 1.0], [1.0, -1.0], [-2.0, 2.0]]
+    return F_of_K, F_of_Y
+
+
+_F_OF_K, _F_OF_Y = _extension_form()
+
+
 def step_stages(rhs, ta, ya, h, f_start, t_end=None, y_end=None):
-    """The stages of one DOP853 step, recomputed: ``K`` of shape (13, n).
+    """The stages of one DOP853 step, recomputed: ``K`` of shape (16, n).
 
     Rows 0 to 11 are the stages k_1 .. k_12 of the step of size ``h`` from
     ``(ta, ya)`` (k_1 = ``f_start`` = f(ta, ya)); row 12 is f at the step end,
     ``(t_end, y_end)`` if given (the compiled code's), else ``(ta + h, ya + h sum b_i k_i)``.
-    Costs 12 right-hand sides.
+    Rows 13 to 15 are left for :func:`continuous_extension`.  Costs 12 right-hand sides.
 
     Parameters
     ----------
@@ -447,7 +480,7 @@ def step_stages(rhs, ta, ya, h, f_start, t_end=None, y_end=None):
     t_end : float, optional
     y_end : ndarray, optional
     """
-    K = np.empty((_STAGES + 1, ya.size))
+    K = np.empty((_STAGES + 4, ya.size))
     K[0] = f_start
     for s in range(1, _STAGES):
         K[s] = rhs(ta + _C[s] * h, ya + h * (_A[s, :s] @ K[:s]))
@@ -461,7 +494,8 @@ def continuous_extension(rhs, ta, ya, tb, yb, stages):
     """The coefficients ``F`` (7, n) of DOP853's continuous extension over one step (Hairer's ``contd8``).
 
     Computes the three extra stages (three right-hand sides) from the step's 13
-    ``stages`` (:func:`step_stages`); the interpolant is :func:`interpolate`.
+    ``stages`` (:func:`step_stages`), into their rows 13 to 15; the interpolant
+    is :func:`interpolate`.
     It is of order 7, and it passes through ``ya`` and ``yb`` with the slopes
     f(ta, ya) and f(tb, yb).
 
@@ -471,58 +505,49 @@ def continuous_extension(rhs, ta, ya, tb, yb, stages):
     ta, tb : float
         The step's start and end.
     ya, yb : ndarray, shape (n,)
-    stages : ndarray, shape (13, n)
+    stages : ndarray, shape (16, n)
     """
     h = tb - ta
-    K = np.empty((_STAGES + 4, ya.size))
-    K[:_STAGES + 1] = stages
-    for s, (a, c) in enumerate(zip(_A_EXTRA, _C_EXTRA), start=_STAGES + 1):
-        K[s] = rhs(ta + c * h, ya + h * (a[:s] @ K[:s]))
-    dy = yb - ya
-    F = np.empty((7, ya.size))
-    F[0] = dy
-    F[1] = h * K[0] - dy
-    F[2] = 2.0 * dy - h * (K[_STAGES] + K[0])
-    F[3:] = h * (_D @ K)
-    return F
+    K = stages
+    for s, a, c in _EXTRA_STAGES:
+        K[s] = rhs(ta + c * h, ya + (h * a) @ K[:s])
+    return h * (_F_OF_K @ K) + _F_OF_Y @ np.array((ya, yb))
 
 
 def interpolate(F, ya, x):
     """The continuous extension at fractions ``x`` of the step: ndarray (n, m).
 
-    ``y(x) = ya + x (F0 + (1 - x) (F1 + x (F2 + (1 - x) (F3 + x (F4 + (1 - x) (F5 + x F6))))))``.
+    ``y(x) = ya + x (F0 + (1 - x) (F1 + x (F2 + (1 - x) (F3 + x (F4 + (1 - x) (F5 + x F6))))))``,
+    summed as ``ya + sum_j F_j b_j(x)`` with the products ``b_j = x, x (1 - x), x^2 (1 - x), ...``
+    (no cancellation in them: the same round-off as the nested form, all outputs at once).
     """
     x = np.asarray(x, dtype=float)
-    rest = 1.0 - x
-    y = np.zeros((ya.size, x.size))
-    for i, row in enumerate(F[::-1]):
-        y += row[:, None]
-        y *= x if i % 2 == 0 else rest
-    return y + ya[:, None]
+    factors = np.empty((F.shape[0], x.size))
+    factors[0::2] = x
+    factors[1::2] = 1.0 - x
+    return F.T @ np.cumprod(factors, axis=0) + ya[:, None]
 
 
 def _recorded_stages(calls, f_start, ta, h, tb, size):
     """The 13 stages of the step from ``ta`` to ``tb`` among the recorded ``calls``, or None if the last
-    twelve calls are not at ``ta + c_i h`` (i = 2..12) and ``tb``."""
+    twelve calls do not run from ``ta + c_2 h`` to ``tb``."""
     if f_start is None or len(calls) < _STAGES:
         return None
     last = calls[-_STAGES:]
-    times = np.fromiter((t for t, _ in last), float, _STAGES)
-    expected = np.append(ta + _C[1:] * h, tb)
-    if np.any(np.abs(times - expected) > 1e-9 * abs(h) + 8.0 * np.finfo(float).eps * max(abs(ta), abs(tb))):
+    if last[-1][0] != tb or abs(last[0][0] - (ta + _C[1] * h)) > 1e-9 * abs(h) + 1e-15 * max(abs(ta), abs(tb)):
         return None
-    K = np.empty((_STAGES + 1, size))
+    K = np.empty((_STAGES + 4, size))
     K[0] = f_start
-    for i, (_, f) in enumerate(last, start=1):
-        K[i] = f
+    K[1:_STAGES + 1] = [f for _, f in last]
     return K
 
 
 def _rebuilds_step_end(ya, h, stages, yb, tb):
     """Whether ``ya + h sum b_i k_i`` is the code's step end ``yb`` to round-off."""
-    increment = _B @ stages[:_STAGES]
-    scale = np.abs(ya) + abs(h) * (np.abs(_B) @ np.abs(stages[:_STAGES])) + abs(tb) * np.abs(increment)
-    return bool(np.all(np.abs(ya + h * increment - yb) <= _ROUND_OFF_UNITS * np.finfo(float).eps * scale))
+    K = stages[:_STAGES]
+    # |h sum b_i k_i - (yb - ya)| against the round-off of the sum and of h (up to |tb| eps |sum b_i k_i|)
+    scale = np.abs(ya) + (abs(h) + abs(tb)) * (_ABS_B @ np.abs(K))
+    return bool((np.abs(ya + h * (_B @ K) - yb) <= _ROUND_OFF_UNITS * _EPS * scale).all())
 
 
 def _locate(rhs, switching, start, hit, directions, rtol, atol, failure):
