@@ -4,10 +4,11 @@ import math
 
 import numpy as np
 import pytest
+from scipy.integrate import DOP853, ode, solve_ivp
 
 from closedloop import InputError, IntegrationError, Minimal, simulate
 from closedloop.formulations import ClosedForm
-from closedloop.simulation.dop853 import integrate_segment
+from closedloop.simulation.dop853 import continuous_extension, integrate_segment, interpolate, step_stages
 from closedloop.slider_crank import initial_state
 
 
@@ -26,7 +27,7 @@ def test_a_zero_crossing_is_located_to_round_off_on_the_integrated_solution():
     assert seg.t[-1] == seg.t_stop and np.all(np.diff(seg.t) > 0)
 
 
-def test_direction_filters_crossings_and_outputs_are_exact_step_ends():
+def test_direction_filters_crossings_and_outputs_end_before_the_switch():
     # Rising crossings of cos t only: the first is at 3 pi / 2.
     outputs = np.array([0.0, 0.5, 1.0, 4.0, 5.0])
     seg = integrate_segment(oscillator, 0.0, np.array([1.0, 0.0]), 10.0, rtol=1e-11, atol=1e-11,
@@ -93,3 +94,133 @@ def test_case_3_sticks_at_the_same_time_as_with_solve_ivp(slider_crank):
     assert len(fast.sticking_intervals) == len(slow.sticking_intervals) == 1
     assert abs(fast.sticking_intervals[0][0] - slow.sticking_intervals[0][0]) < 1e-6
     assert abs(fast.sticking_intervals[0][0] - 28.446) < 1e-3
+
+
+# -- outputs: DOP853's continuous extension inside the compiled code's steps ------------------------------
+
+def pendulum_rhs(t, y):
+    return np.array([y[1], -math.sin(y[0]) + 0.3 * math.cos(2.0 * t)])
+
+
+def test_the_continuous_extension_is_scipys_dop853_dense_output_to_round_off():
+    solver = DOP853(pendulum_rhs, 0.0, np.array([1.0, 0.0]), 10.0, rtol=1e-6, atol=1e-6)
+    for _ in range(3):
+        solver.step()
+    ta, ya, tb, yb = solver.t_old, solver.dense_output().y_old, solver.t, solver.y
+    x = np.linspace(0.0, 1.0, 7)
+    expected = solver.dense_output()(ta + x * (tb - ta))
+    stages = step_stages(pendulum_rhs, ta, ya, tb - ta, pendulum_rhs(ta, ya), t_end=tb, y_end=yb)
+    ours = interpolate(continuous_extension(pendulum_rhs, ta, ya, tb, yb, stages), ya, x)
+    assert np.max(np.abs(ours - expected)) < 1e-14
+    assert np.max(np.abs(ours[:, -1] - yb)) < 1e-15 and np.max(np.abs(ours[:, 0] - ya)) < 1e-15
+
+
+def test_stages_recomputed_from_the_step_start_give_the_compiled_codes_step_end_to_round_off():
+    ends = []
+
+    def solout(t, y):
+        ends.append((t, y.copy()))
+
+    solver = ode(pendulum_rhs).set_integrator("dop853", rtol=1e-8, atol=1e-8)
+    solver.set_solout(solout)
+    solver.set_initial_value([1.0, 0.0], 0.0)
+    solver.integrate(10.0)
+    assert len(ends) > 20
+    eps = np.finfo(float).eps
+    for (ta, ya), (tb, yb) in zip(ends, ends[1:]):
+        h = tb - ta
+        stages = step_stages(pendulum_rhs, ta, ya, h, pendulum_rhs(ta, ya))
+        rebuilt = ya + h * (DOP853.B @ stages[:12])
+        # in units of the round-off of ya + h sum b_i k_i: a wrong stage or coefficient would be ~1e8 units
+        units = np.abs(rebuilt - yb) / (eps * (np.abs(ya) + abs(h) * (np.abs(DOP853.B) @ np.abs(stages[:12]))))
+        assert units.max() < 64
+
+
+def steps_holding(outputs, t0, steps, t_stop=None):
+    """How many of the steps (sizes ``steps`` from t0, then one to ``t_stop``) hold an output strictly inside."""
+    ends = t0 + np.cumsum(steps)
+    starts, ends = np.append(t0, ends[:-1]), ends
+    if t_stop is not None:
+        starts, ends = np.append(starts, ends[-1] if ends.size else t0), np.append(ends, t_stop)
+    return int(sum(np.any((outputs > a) & (outputs < b)) for a, b in zip(starts, ends)))
+
+
+def test_outputs_inside_steps_and_before_a_switch_follow_the_exact_solution():
+    # y = cos t falls through zero at pi/2; 1001 output times, of which those before pi/2 come out.
+    outputs = np.linspace(0.0, 10.0, 1001)
+    options = dict(rtol=1e-10, atol=1e-10, switching=lambda t, y: [y[0]], directions=[-1.0])
+    plain = integrate_segment(oscillator, 0.0, np.array([1.0, 0.0]), 10.0, **options)
+    seg = integrate_segment(oscillator, 0.0, np.array([1.0, 0.0]), 10.0, outputs=outputs, **options)
+    assert list(seg.t) == list(outputs[outputs < math.pi / 2])
+    assert seg.steps == plain.steps and seg.t_stop == plain.t_stop
+    assert np.array_equal(seg.y_stop, plain.y_stop)
+    # The 7th-order extension's error is of the order of the tolerance (3.4e-10 at 1e-10), as that of
+    # solve_ivp's DOP853, whose dense output it is; the step ends are far better (2e-11).
+    output_error = np.max(np.abs(seg.y[0] - np.cos(seg.t)))
+    theirs = solve_ivp(oscillator, (0.0, 10.0), [1.0, 0.0], method="DOP853", rtol=1e-10, atol=1e-10, t_eval=outputs)
+    assert output_error < 5e-10 and output_error < 1.5 * np.max(np.abs(theirs.y[0] - np.cos(outputs)))
+    assert np.max(np.abs(plain.y[0] - np.cos(plain.t))) < 3e-11
+    # three extra right-hand sides per step holding an output (the crossing step too): the stages are the code's
+    assert seg.nfev - plain.nfev == 3 * steps_holding(seg.t, 0.0, plain.steps, plain.t_stop)
+
+
+def test_outputs_at_step_ends_cost_nothing_and_are_the_codes_states():
+    options = dict(rtol=1e-10, atol=1e-10, switching=lambda t, y: [], directions=[])
+    plain = integrate_segment(oscillator, 0.0, np.array([1.0, 0.0]), 5.0, **options)
+    ends = plain.t[[0, 3, -1]]                              # the start, a step end, t_end
+    seg = integrate_segment(oscillator, 0.0, np.array([1.0, 0.0]), 5.0, outputs=ends, **options)
+    assert seg.nfev == plain.nfev
+    assert np.array_equal(seg.t, ends) and np.array_equal(seg.y, plain.y[:, [0, 3, -1]])
+
+
+def test_a_right_hand_side_that_reuses_its_array_makes_the_steps_be_recomputed():
+    buffer = np.empty(2)
+
+    def reusing(t, y):
+        buffer[0], buffer[1] = y[1], -y[0]
+        return buffer
+
+    outputs = np.linspace(0.0, 5.0, 51)
+    options = dict(rtol=1e-10, atol=1e-10, switching=lambda t, y: [], directions=[])
+    plain = integrate_segment(reusing, 0.0, np.array([1.0, 0.0]), 5.0, **options)
+    seg = integrate_segment(reusing, 0.0, np.array([1.0, 0.0]), 5.0, outputs=outputs, **options)
+    recorded = integrate_segment(oscillator, 0.0, np.array([1.0, 0.0]), 5.0, outputs=outputs, **options)
+    assert np.max(np.abs(seg.y - recorded.y)) < 1e-14       # recomputed stages: the same outputs
+    # the recorded stages all alias one array, fail the check, and each step is recomputed: 13 + 3 per step
+    assert seg.nfev - plain.nfev == 16 * steps_holding(outputs, 0.0, plain.steps)
+
+
+@pytest.fixture(scope="module")
+def case_2_runs(slider_crank):
+    """Case 2 over 1 s with ode.dop853: no outputs, 10 001 and 50 001 output times, and a tight reference."""
+    state = initial_state(slider_crank, math.pi / 2, 1.0)
+    options = dict(formulation=ClosedForm(), method="ode.dop853", rtol=1e-9, atol=1e-9)
+    grid = np.linspace(0.0, 1.0, 10_001)
+    return dict(
+        none=simulate(slider_crank, state, 1.0, **options),
+        grid=simulate(slider_crank, state, 1.0, t_eval=grid, **options),
+        fine=simulate(slider_crank, state, 1.0, t_eval=np.linspace(0.0, 1.0, 50_001), **options),
+        reference=simulate(slider_crank, state, 1.0, formulation=Minimal(), method="DOP853", rtol=1e-13,
+                           atol=1e-13, t_eval=grid))
+
+
+def test_an_output_grid_changes_neither_the_steps_nor_the_end_state(case_2_runs):
+    none, grid = case_2_runs["none"], case_2_runs["grid"]
+    assert grid.t.size == 10_001 and none.n_steps < 100
+    assert np.array_equal(grid.step_sizes, none.step_sizes)
+    assert grid.t[-1] == none.t[-1] == 1.0
+    assert np.max(np.abs(grid.s[:, -1] - none.s[:, -1])) < 1e-13
+    assert np.max(np.abs(grid.sd[:, -1] - none.sd[:, -1])) < 1e-13
+
+
+def test_an_output_grid_costs_three_evaluations_per_step(case_2_runs):
+    none, grid, fine = case_2_runs["none"], case_2_runs["grid"], case_2_runs["fine"]
+    assert grid.nfev == none.nfev + 3 * steps_holding(grid.t, 0.0, none.step_sizes)
+    assert fine.nfev == grid.nfev                           # 5 times the outputs, the same cost
+    assert grid.nfev <= 1.5 * none.nfev
+
+
+def test_outputs_on_a_grid_are_as_accurate_as_the_tolerance(case_2_runs):
+    grid, reference = case_2_runs["grid"], case_2_runs["reference"]
+    state, ref = np.vstack((grid.s, grid.sd)), np.vstack((reference.s, reference.sd))
+    assert np.max(np.abs(state - ref) / (1e-9 + 1e-9 * np.abs(ref))) < 1.0

@@ -18,8 +18,16 @@ module adds what :func:`closedloop.simulate` needs from a segment:
   is exact to round-off for the microsecond corrections left) put the
   switching function at zero.
 
-Requested output times become step ends (the code stops there), so no output
-is interpolated.  The method is selected by ``simulate(..., method="ode.dop853")``.
+Requested output times do not stop the code: it steps from ``t0`` to the end as
+it would without them (the same steps, the same end state), and the outputs inside an
+accepted step are evaluated with DOP853's own continuous extension of order 7
+(Hairer's ``contd8``, [Hairer, Nørsett, Wanner, section II.6]), the dense output of
+``solve_ivp(method="DOP853")``.  The code calls the right-hand side for every stage
+and ``solout`` after every accepted step, so the stages of that step are the last
+twelve calls (:class:`_DenseOutputs` records them and checks that they rebuild the
+code's step end to round-off, else recomputes them); only the three extra stages
+of the extension are new right-hand sides, and only in the steps that contain an
+output time.  The method is selected by ``simulate(..., method="ode.dop853")``.
 """
 
 from __future__ import annotations
@@ -29,13 +37,14 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import ode
+from scipy.integrate import DOP853, ode
 
 from .. import hermite
 from ..errors import IntegrationError
 from ..methods import COMPILED_METHOD
 
-__all__ = ["METHOD", "ALLOWED_OPTIONS", "integrate_segment", "Segment"]
+__all__ = ["METHOD", "ALLOWED_OPTIONS", "integrate_segment", "Segment", "step_stages", "continuous_extension",
+           "interpolate"]
 
 #: The method name simulate() uses for this integrator.
 METHOD = COMPILED_METHOD
@@ -115,7 +124,9 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         For each switching function: -1 to stop where it falls through zero,
         +1 where it rises, 0 for both (as solve_ivp's ``event.direction``).
     outputs : ndarray, optional
-        Output times in ``[t0, t_end]``; default: every step end.
+        Output times in ``[t0, t_end]`` (others are ignored), evaluated with
+        DOP853's continuous extension inside the accepted steps: they change
+        neither the steps nor the end state; default: every step end.
     first_step, max_step : float, optional
         0 lets the code choose.
     nsteps : int, optional
@@ -134,32 +145,26 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     """
     y0 = np.asarray(y0, dtype=float)
     failure = []                            # an exception raised inside the compiled code's callbacks
-    counted, evaluations = _counting(rhs, max_nfev, failure)
+    calls = None if outputs is None else []  # (t, f) of every call, for the stages of the steps
+    counted, evaluations = _counting(rhs, max_nfev, failure, calls)
     directions = tuple(float(d) for d in directions)
-    watch = _StepWatch(switching, directions, t0, y0, first_step, keep_steps=outputs is None, failure=failure)
-    if outputs is None:
-        targets, wanted = [t_end], set()
-    else:
-        wanted = {float(t) for t in outputs}
-        targets = sorted(t for t in wanted | {float(t_end)} if t > t0)
-        if t0 not in wanted:
-            watch.times, watch.states = [], []
+    dense = None if outputs is None else _DenseOutputs(counted, calls, outputs, t0, y0, t_end)
+    watch = _StepWatch(switching, directions, t0, y0, first_step, keep_steps=outputs is None, failure=failure,
+                       dense=dense)
     with warnings.catch_warnings():          # the code's warnings become the errors raised below
         warnings.simplefilter("ignore", UserWarning)
-        for target in targets:
-            if target <= watch.last_t:
-                continue
-            solver = ode(counted).set_integrator("dop853", rtol=rtol, atol=atol, nsteps=nsteps,
-                                                 first_step=min(watch.last_step, target - watch.last_t),
-                                                 max_step=max_step)
+        if t_end > t0:
+            solver = ode(counted).set_integrator(
+                "dop853", rtol=rtol, atol=atol, nsteps=nsteps, first_step=min(watch.last_step, t_end - t0),
+                max_step=max_step)
             solver.set_solout(watch.solout)
-            solver.set_initial_value(watch.last_y, watch.last_t)
-            solver.integrate(target)
+            solver.set_initial_value(y0, t0)
+            solver.integrate(t_end)
             if failure:
                 raise _with_path(failure[0], watch, getattr(failure[0], "t", None))
             if watch.hit is not None:
                 return _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failure, evaluations,
-                                          outputs is None, y0.size)
+                                          y0.size)
             code = solver.get_return_code()
             if code < 0:
                 error = IntegrationError(
@@ -167,13 +172,12 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                     "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains")
                 error.return_code, error.t = code, float(solver.t)
                 raise _with_path(error, watch)
-            watch.last_t, watch.last_y = target, np.array(solver.y, dtype=float)
-            if target in wanted:
-                watch.times.append(target)
-                watch.states.append(watch.last_y.copy())
-    return Segment(np.array(watch.times), np.array(watch.states).reshape(len(watch.times), y0.size).T, t_end,
-                   watch.last_y.copy(), None, evaluations(), watch.last_step, watch.steps, np.array(watch.ends).T,
-                   np.array(watch.end_times))
+            watch.last_t, watch.last_y = t_end, np.array(solver.y, dtype=float)
+    if dense is not None:
+        dense.finish(watch.last_y)          # an output at t_end beyond the last step end by round-off
+    t, y = watch.outputs(y0.size)
+    return Segment(t, y, t_end, watch.last_y.copy(), None, evaluations(), watch.last_step, watch.steps,
+                   np.array(watch.ends).T, np.array(watch.end_times))
 
 
 def _with_path(error, watch, failed_at=None):
@@ -184,15 +188,29 @@ def _with_path(error, watch, failed_at=None):
     return error
 
 
-def _counting(rhs, max_nfev, failure):
+def _counting(rhs, max_nfev, failure, calls=None):
     """``(counted, evaluations)``: rhs that counts its calls (and stops at max_nfev), and the count.
 
     The compiled caller cannot propagate an exception: a failing call stores it
-    in ``failure`` and returns NaN, and the segment re-raises it.
+    in ``failure`` and returns NaN, and the segment re-raises it.  With a list
+    ``calls``, every call appends ``(t, f)`` to it (for :class:`_DenseOutputs`).
     """
     count = 0
 
-    if max_nfev == math.inf:
+    if calls is not None:
+        def counted(t, y):
+            nonlocal count
+            count += 1
+            try:
+                if count > max_nfev:
+                    raise BudgetExceeded(t)
+                f = rhs(t, y)
+            except Exception as error:
+                failure.append(_failed_at(t, error))
+                f = [math.nan] * y.size
+            calls.append((t, f))
+            return f
+    elif max_nfev == math.inf:
         def counted(t, y):
             nonlocal count
             count += 1
@@ -234,26 +252,32 @@ class _StepWatch:
 
     ``last_t, last_y, last_g``: the last accepted step end and its switching
     values; ``last_step``: its step size; ``hit``: ``(t, y, g)`` of the step that
-    crossed, or None; ``times, states``: the outputs; ``steps, ends``: every step.
+    crossed, or None; ``times, states``: the outputs at step ends (without
+    ``dense``); ``steps, ends``: every step; ``dense``: the requested outputs, or None.
     """
 
-    def __init__(self, switching, directions, t0, y0, first_step, keep_steps, failure):
+    def __init__(self, switching, directions, t0, y0, first_step, keep_steps, failure, dense=None):
         self.switching, self.directions, self.failure, self.keep_steps = switching, directions, failure, keep_steps
         self.last_t, self.last_y, self.last_g = t0, y0.copy(), list(switching(t0, y0))
-        self.last_step, self.hit = first_step, None
-        self.times, self.states = [t0], [y0.copy()]
+        self.last_step, self.hit, self.dense = first_step, None, dense
+        self.times, self.states = ([t0], [y0.copy()]) if keep_steps else ([], [])
         self.steps, self.ends, self.end_times = [], [y0.copy()], [t0]
 
     def solout(self, t, y):
         if self.failure:
             return -1
         if t <= self.last_t:                 # the call at the start point
+            if self.dense is not None:
+                self.dense.start(t)
             return 0
         g = list(self.switching(t, y))
         for b, a, direction in zip(self.last_g, g, self.directions):
             if a != b and ((direction >= 0 and b <= 0.0 <= a) or (direction <= 0 and b >= 0.0 >= a)):
                 self.hit = (t, y.copy(), g)
+                if self.dense is not None:
+                    self.dense.crossed()
                 return -1
+        ta, ya = self.last_t, self.last_y
         self.last_step = t - self.last_t
         self.steps.append(self.last_step)
         y = y.copy()                         # one copy serves all three lists: none is changed in place
@@ -263,23 +287,267 @@ class _StepWatch:
         if self.keep_steps:
             self.times.append(t)
             self.states.append(y)
+        if self.dense is not None:
+            try:
+                self.dense.step(ta, ya, t, y)
+            except Exception as error:       # the compiled caller cannot propagate it
+                self.failure.append(error)
+            if self.failure:
+                return -1
         return 0
 
+    def outputs(self, size):
+        """``(t, y)`` of the segment's outputs: the step ends, or the requested times."""
+        if self.dense is not None:
+            return self.dense.outputs(size)
+        return np.array(self.times), np.array(self.states).reshape(len(self.times), size).T
 
-def _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failure, evaluations, every_step, size):
+
+def _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failure, evaluations, size):
     """The Segment of a segment stopped by a switch: locate the crossing in the step that crossed."""
     t_event, y_event, event = _locate(counted, switching, (watch.last_t, watch.last_y, watch.last_g), watch.hit,
                                       directions, rtol, atol, failure)
     if failure:
         raise failure[0]
-    if every_step:                          # solve_ivp's convention: the event ends sol.t
+    if watch.dense is None:                 # solve_ivp's convention: the event ends sol.t
         watch.times.append(t_event)
         watch.states.append(y_event)
+    else:                                   # the requested times before the switch, inside the crossing step
+        watch.dense.before_switch(watch.last_t, watch.last_y, watch.hit[0], watch.hit[1], t_event)
+        if failure:
+            raise failure[0]
     watch.ends.append(y_event)
     watch.end_times.append(t_event)
-    return Segment(np.array(watch.times), np.array(watch.states).reshape(len(watch.times), size).T, t_event,
-                   y_event, event, evaluations(), watch.last_step, watch.steps, np.array(watch.ends).T,
-                   np.array(watch.end_times))
+    t, y = watch.outputs(size)
+    return Segment(t, y, t_event, y_event, event, evaluations(), watch.last_step, watch.steps,
+                   np.array(watch.ends).T, np.array(watch.end_times))
+
+
+class _DenseOutputs:
+    """The requested output times of a segment, from DOP853's continuous extension of the accepted steps.
+
+    The compiled code's right-hand side appends every call ``(t, f)`` to ``calls``
+    (see :func:`_counting`); the calls since the last accepted step are kept.  When ``solout`` reports an
+    accepted step from ``ta`` to ``tb``, its last twelve calls are the eleven
+    stages at ``ta + c_i h`` (i = 2..12) and f at the new step end (the code's
+    FSAL evaluation); the step's first stage is f at ``ta``, the previous step's
+    last call.  Calls of rejected steps come before them and are skipped.  For a
+    step that contains output times, the stages are checked (their times, and
+    the step end ``ya + h sum b_i k_i`` they give against the code's, to
+    round-off), the three extra stages of the extension are computed, and the
+    interpolant is evaluated at all the step's output times at once.  If the
+    check fails (a code that calls in another order) the step's stages are
+    recomputed from ``(ta, ya, h)`` and checked the same way.
+
+    Parameters
+    ----------
+    rhs : callable
+        The counted right-hand side, for the extra stages.
+    calls : list
+        Where ``rhs`` appends its calls.
+    times : array_like
+        The requested output times; those outside ``[t0, t_end]`` are ignored.
+    t0, y0 : float, ndarray
+        The segment's start (an output if ``t0`` is requested).
+    t_end : float
+    """
+
+    def __init__(self, rhs, calls, times, t0, y0, t_end):
+        times = np.asarray(times, dtype=float)
+        if times.ndim != 1 or np.any(np.diff(times) <= 0):
+            times = np.unique(times)
+        self.rhs = rhs
+        self.times = times[(times >= t0) & (times <= t_end)]
+        self.next = 0                       # index of the first time not yet output
+        self.calls = calls                  # (t, f) of the calls since the last accepted step
+        self.f_start = None                 # f at the start of the current step
+        self.crossing = None                # the calls and f_start of the step that crossed a switch
+        self.out_t, self.out_y = [], []
+        if self.times.size and self.times[0] == t0:
+            self._emit(self.times[:1], np.asarray(y0, dtype=float)[:, None].copy())
+
+    def start(self, t0):
+        """At the code's ``solout`` call at the start point: its first call was f at ``t0``."""
+        if self.calls and self.calls[0][0] == t0:
+            self.f_start = self.calls[0][1]
+        self.calls.clear()
+
+    def step(self, ta, ya, tb, yb):
+        """An accepted step from ``(ta, ya)`` to ``(tb, yb)``: output the requested times in ``(ta, tb]``."""
+        calls, f_start = self.calls, self.f_start
+        self.f_start = calls[-1][1] if calls and calls[-1][0] == tb else None
+        stop = int(np.searchsorted(self.times, tb, side="right"))
+        if stop > self.next:
+            self._interpolate(ta, ya, tb, yb, f_start, calls, self.times[self.next:stop])
+        calls.clear()
+
+    def crossed(self):
+        """``solout`` stopped the code at a step that crossed a switch: keep that step's calls."""
+        self.crossing = (list(self.calls[-_STAGES:]), self.f_start)
+
+    def before_switch(self, ta, ya, tb, yb, t_event):
+        """Output the requested times in ``(ta, t_event)`` from the step that crossed, ``(ta, ya)`` to ``(tb, yb)``."""
+        stop = int(np.searchsorted(self.times, t_event, side="left"))
+        if stop > self.next:
+            calls, f_start = self.crossing
+            self._interpolate(ta, ya, tb, yb, f_start, calls, self.times[self.next:stop])
+
+    def finish(self, y_end):
+        """At t_end: any time left lies beyond the last step end by round-off, where the state is ``y_end``."""
+        rest = self.times[self.next:]
+        if rest.size:
+            self._emit(rest, np.repeat(np.asarray(y_end, dtype=float)[:, None], rest.size, axis=1))
+
+    def outputs(self, size):
+        if not self.out_t:
+            return np.empty(0), np.empty((size, 0))
+        return np.concatenate(self.out_t), np.concatenate(self.out_y, axis=1)
+
+    def _emit(self, times, states):
+        self.out_t.append(times)
+        self.out_y.append(states)
+        self.next += times.size
+
+    def _interpolate(self, ta, ya, tb, yb, f_start, calls, times):
+        if times[0] == tb:                  # only the step end: the code's own state, no extension needed
+            self._emit(times, yb[:, None].copy())
+            return
+        h = tb - ta
+        stages = _recorded_stages(calls, f_start, ta, h, tb, ya.size)
+        if stages is None or not _rebuilds_step_end(ya, h, stages, yb, tb):
+            # f at ta too: a recorded f may be an array that the rhs reuses
+            stages = step_stages(self.rhs, ta, ya, h, self.rhs(ta, ya), t_end=tb, y_end=yb)
+            if not _rebuilds_step_end(ya, h, stages, yb, tb):
+                error = IntegrationError(
+                    f"ode.dop853 failed at t = {ta:.6g} s: the stages of the step to t = {tb:.6g} s, recomputed, "
+                    "do not give the compiled code's step end, so no output inside it can be interpolated; "
+                    "use a solve_ivp method, or no t_eval")
+                error.t = ta
+                raise error
+        states = interpolate(continuous_extension(self.rhs, ta, ya, tb, yb, stages), ya, (times - ta) / h)
+        if times[-1] == tb:                 # a step end: the code's own state
+            states[:, -1] = yb
+        self._emit(times, states)
+
+
+#: DOP853's coefficients (Hairer's, as scipy's DOP853 carries them): the 12 stages of the step,
+#: its weights, and the three extra stages and the D matrix of the continuous extension.
+_STAGES = DOP853.n_stages                                         # 12
+_A, _B, _C = DOP853.A, DOP853.B, DOP853.C
+_A_EXTRA, _C_EXTRA, _D = DOP853.A_EXTRA, DOP853.C_EXTRA, DOP853.D
+_ABS_B = np.abs(_B)
+#: (row, a_row[:row], c) of the extension's three extra stages.
+_EXTRA_STAGES = [(s, a[:s].copy(), c) for s, (a, c) in enumerate(zip(_A_EXTRA, _C_EXTRA), start=_STAGES + 1)]
+_EPS = np.finfo(float).eps
+#: A step end rebuilt from the stages may differ from the code's by this many units of round-off
+#: of the sum ``ya + h sum b_i k_i`` (the code sums in another order, and its h differs from
+#: ``tb - ta`` by round-off in tb).
+_ROUND_OFF_UNITS = 64.0
+
+
+def _extension_form():
+    """``(F_of_K, F_of_Y)``: Hairer's ``contd8`` coefficients as ``F = h F_of_K K + F_of_Y [ya, yb]``.
+
+    ``F0 = yb - ya``, ``F1 = h k_1 - F0``, ``F2 = 2 F0 - h (k_1 + k_13)``, ``F3..F6 = h D K``.
+    """
+    F_of_K = np.zeros((7, _STAGES + 4))
+    F_of_K[1, 0] = 1.0
+    F_of_K[2, [0, _STAGES]] = -1.0
+    F_of_K[3:] = _D
+    F_of_Y = np.zeros((7, 2))
+    F_of_Y[:3] = [[-1.0, 1.0], [1.0, -1.0], [-2.0, 2.0]]
+    return F_of_K, F_of_Y
+
+
+_F_OF_K, _F_OF_Y = _extension_form()
+
+
+def step_stages(rhs, ta, ya, h, f_start, t_end=None, y_end=None):
+    """The stages of one DOP853 step, recomputed: ``K`` of shape (16, n).
+
+    Rows 0 to 11 are the stages k_1 .. k_12 of the step of size ``h`` from
+    ``(ta, ya)`` (k_1 = ``f_start`` = f(ta, ya)); row 12 is f at the step end,
+    ``(t_end, y_end)`` if given (the compiled code's), else ``(ta + h, ya + h sum b_i k_i)``.
+    Rows 13 to 15 are left for :func:`continuous_extension`.  Costs 12 right-hand sides.
+
+    Parameters
+    ----------
+    rhs : callable
+    ta : float
+    ya : ndarray, shape (n,)
+    h : float
+    f_start : array_like, shape (n,)
+    t_end : float, optional
+    y_end : ndarray, optional
+    """
+    K = np.empty((_STAGES + 4, ya.size))
+    K[0] = f_start
+    for s in range(1, _STAGES):
+        K[s] = rhs(ta + _C[s] * h, ya + h * (_A[s, :s] @ K[:s]))
+    if y_end is None:
+        t_end, y_end = ta + h, ya + h * (_B @ K[:_STAGES])
+    K[_STAGES] = rhs(t_end, y_end)
+    return K
+
+
+def continuous_extension(rhs, ta, ya, tb, yb, stages):
+    """The coefficients ``F`` (7, n) of DOP853's continuous extension over one step (Hairer's ``contd8``).
+
+    Computes the three extra stages (three right-hand sides) from the step's 13
+    ``stages`` (:func:`step_stages`), into their rows 13 to 15; the interpolant
+    is :func:`interpolate`.
+    It is of order 7, and it passes through ``ya`` and ``yb`` with the slopes
+    f(ta, ya) and f(tb, yb).
+
+    Parameters
+    ----------
+    rhs : callable
+    ta, tb : float
+        The step's start and end.
+    ya, yb : ndarray, shape (n,)
+    stages : ndarray, shape (16, n)
+    """
+    h = tb - ta
+    K = stages
+    for s, a, c in _EXTRA_STAGES:
+        K[s] = rhs(ta + c * h, ya + (h * a) @ K[:s])
+    return h * (_F_OF_K @ K) + _F_OF_Y @ np.array((ya, yb))
+
+
+def interpolate(F, ya, x):
+    """The continuous extension at fractions ``x`` of the step: ndarray (n, m).
+
+    ``y(x) = ya + x (F0 + (1 - x) (F1 + x (F2 + (1 - x) (F3 + x (F4 + (1 - x) (F5 + x F6))))))``,
+    summed as ``ya + sum_j F_j b_j(x)`` with the products ``b_j = x, x (1 - x), x^2 (1 - x), ...``
+    (no cancellation in them: the same round-off as the nested form, all outputs at once).
+    """
+    x = np.asarray(x, dtype=float)
+    factors = np.empty((F.shape[0], x.size))
+    factors[0::2] = x
+    factors[1::2] = 1.0 - x
+    return F.T @ np.cumprod(factors, axis=0) + ya[:, None]
+
+
+def _recorded_stages(calls, f_start, ta, h, tb, size):
+    """The 13 stages of the step from ``ta`` to ``tb`` among the recorded ``calls``, or None if the last
+    twelve calls do not run from ``ta + c_2 h`` to ``tb``."""
+    if f_start is None or len(calls) < _STAGES:
+        return None
+    last = calls[-_STAGES:]
+    if last[-1][0] != tb or abs(last[0][0] - (ta + _C[1] * h)) > 1e-9 * abs(h) + 1e-15 * max(abs(ta), abs(tb)):
+        return None
+    K = np.empty((_STAGES + 4, size))
+    K[0] = f_start
+    K[1:_STAGES + 1] = [f for _, f in last]
+    return K
+
+
+def _rebuilds_step_end(ya, h, stages, yb, tb):
+    """Whether ``ya + h sum b_i k_i`` is the code's step end ``yb`` to round-off."""
+    K = stages[:_STAGES]
+    # |h sum b_i k_i - (yb - ya)| against the round-off of the sum and of h (up to |tb| eps |sum b_i k_i|)
+    scale = np.abs(ya) + (abs(h) + abs(tb)) * (_ABS_B @ np.abs(K))
+    return bool((np.abs(ya + h * (_B @ K) - yb) <= _ROUND_OFF_UNITS * _EPS * scale).all())
 
 
 def _locate(rhs, switching, start, hit, directions, rtol, atol, failure):

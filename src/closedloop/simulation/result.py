@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -161,9 +162,8 @@ class Outputs:
         work = None
         if work_row:
             y, work = y[:-1], y[-1]
-        pairs = [unpack(y[:, k], t[k]) for k in range(t.size)]
-        self.pieces.append(Piece(t, np.array([p[0] for p in pairs]).T, np.array([p[1] for p in pairs]).T,
-                                 mode, None, work))
+        s, sd = unpack.many(y, t)           # rule 3 of the formulation contract: in order along the path
+        self.pieces.append(Piece(t, s, sd, mode, None, work))
 
     def add_rest(self, times, s, mode, stuck, work):
         """Store the output of an interval at rest at ``s``."""
@@ -179,10 +179,11 @@ class Outputs:
         t = np.concatenate([p.t for p in pieces])
         s = np.concatenate([p.s for p in pieces], axis=1)
         sd = np.concatenate([p.sd for p in pieces], axis=1)
-        modes = [(p.mode, p.stuck) for p in pieces for _ in range(p.t.size)]
         keep = np.concatenate(([True], np.diff(t) > 0))
+        modes = list(itertools.compress(itertools.chain.from_iterable(
+            itertools.repeat((p.mode, p.stuck), p.t.size) for p in pieces), keep.tolist()))
         work = np.concatenate([p.work for p in pieces])[keep] if track_work else None
-        return t[keep], s[:, keep], sd[:, keep], [m for m, k in zip(modes, keep) if k], work
+        return t[keep], s[:, keep], sd[:, keep], modes, work
 
 
 def multipliers(system, formulation, t, s, sd, modes):

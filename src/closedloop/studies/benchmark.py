@@ -25,12 +25,9 @@ cpu_s
     The median over ``repeats`` runs of the process time of one 20 s run that
     outputs the state at 10 s and 20 s only, so that output work is the same
     for every entry.  The grid run (with the 2001-point grid) is a separate,
-    untimed run.  For the solve_ivp methods it takes the same steps (the grid
-    is interpolated from the dense output).  "ode.dop853" has no dense output:
-    its output times are step ends, so its grid run takes steps of at most
-    0.01 s and is far more accurate than the timed run; its max_state_error and
-    residuals describe that grid run, and only error_t10 and nfev (from the
-    timed run) are comparable with the other entries.
+    untimed run.  It takes the same steps for every method, "ode.dop853"
+    included (the grid is interpolated from each method's dense output; see
+    the Notes of :func:`closedloop.simulate`).
 
 Reference
 ---------
