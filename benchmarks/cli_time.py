@@ -41,7 +41,7 @@ import time
 from pathlib import Path
 
 #: main before the disk cache: the version the lead's "before" figures refer to.
-BEFORE = "516fce2"
+BEFORE = "0580c6d"
 ROOT = Path(__file__).resolve().parents[1]
 SIMULATE = "import sys; from closedloop.cli import main; sys.exit(main())"
 PACKAGES = ("numpy", "scipy", "sympy", "matplotlib", "closedloop")

@@ -113,8 +113,9 @@ def test_cheapest_choice_and_ratio_from_rows():
 
 
 def test_error_t10_comes_from_the_timed_run_whose_cpu_time_is_recorded(quick):
-    """ode.dop853 stops at every output time, so its 2001-point grid run is far more accurate
-    than the timed run (outputs at 10 s and 20 s): the row must report the timed run's error.
+    """The row reports the error of the timed run (outputs at 10 s and 20 s), and a 2001-point grid
+    changes neither the steps nor the value at 10 s, for solve_ivp's DOP853 and for ode.dop853
+    alike: both interpolate outputs on DOP853's continuous extension of the same steps.
 
     The rows are those of the quick study; the reference is recomputed here as the study
     computes it (minimal coordinates, REFERENCE_METHOD, rtol = atol = REFERENCE_TOL, on its grid).
@@ -132,21 +133,17 @@ def test_error_t10_comes_from_the_timed_run_whose_cpu_time_is_recorded(quick):
     run = simulate(system, state, 20.0, formulation=Minimal(), method=REFERENCE_METHOD, rtol=REFERENCE_TOL,
                    atol=REFERENCE_TOL, t_eval=grid)
     reference = np.concatenate((run.s[:, at_10], run.sd[:, at_10]))
-    timed = simulate(system, state, 20.0, formulation=ClosedForm(1, 1), method="ode.dop853", rtol=1e-6,
-                     atol=1e-6, t_eval=(10.0, 20.0))
-    on_grid = simulate(system, state, 20.0, formulation=ClosedForm(1, 1), method="ode.dop853", rtol=1e-6,
-                       atol=1e-6, t_eval=grid)
-    timed_error = np.abs(np.concatenate((timed.s[:, 0], timed.sd[:, 0])) - reference).max()
-    grid_error = np.abs(np.concatenate((on_grid.s[:, at_10], on_grid.sd[:, at_10])) - reference).max()
-    assert grid_error < timed_error / 100          # the grid run is not the run that was timed
-    row = curve(quick[0], "closed-form", "ode.dop853")[1e-6]
-    assert row["error_t10"] == timed_error and row["nfev"] < on_grid.nfev / 10
-    # for a solve_ivp method the grid is interpolated: the same steps, the same value at 10 s
-    row = curve(quick[0], "closed-form", "DOP853")[1e-6]
-    on_grid = simulate(system, state, 20.0, formulation=ClosedForm(1, 1), method="DOP853", rtol=1e-6,
-                       atol=1e-6, t_eval=grid)
-    assert row["error_t10"] == np.abs(np.concatenate((on_grid.s[:, at_10], on_grid.sd[:, at_10]))
-                                      - reference).max()
+    for method in ("ode.dop853", "DOP853"):
+        timed = simulate(system, state, 20.0, formulation=ClosedForm(1, 1), method=method, rtol=1e-6,
+                         atol=1e-6, t_eval=(10.0, 20.0))
+        on_grid = simulate(system, state, 20.0, formulation=ClosedForm(1, 1), method=method, rtol=1e-6,
+                           atol=1e-6, t_eval=grid)
+        timed_error = np.abs(np.concatenate((timed.s[:, 0], timed.sd[:, 0])) - reference).max()
+        grid_error = np.abs(np.concatenate((on_grid.s[:, at_10], on_grid.sd[:, at_10])) - reference).max()
+        row = curve(quick[0], "closed-form", method)[1e-6]
+        assert row["error_t10"] == timed_error, method
+        assert grid_error == pytest.approx(timed_error, rel=1e-6), method
+        assert np.array_equal(on_grid.step_sizes, timed.step_sizes) and row["nfev"] <= on_grid.nfev <= 1.5 * row["nfev"], method
 
 
 def test_the_baseline_keeps_its_own_methods_in_every_case():

@@ -30,7 +30,7 @@ def test_json_has_the_promised_fields_and_unwrapped_angles(capsys):
                 "max_constraint_error", "cpu_s"):
         assert key in out
     assert set(out["final"]) >= {"phi", "psi", "x", "dphi", "dpsi", "dx"}
-    assert (out["t_end"], out["formulation"], out["reading"]) == (20.0, "baumgarte", "decimal-opposing")
+    assert (out["t_end"], out["formulation"], out["reading"]) == (20.0, "closed-form", "decimal-opposing")
     assert out["phi0"] == pytest.approx(math.pi / 2) and out["dphi0"] == 1.0
     assert out["motion"] == "full rotation"
     assert out["final"]["phi"] > out["phi0"] + 2 * math.pi        # unwrapped, not reduced modulo 2 pi

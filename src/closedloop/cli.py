@@ -46,8 +46,11 @@ from .validation import finite_number, one_of, positive_integer
 __all__ = ["main", "build_parser"]
 
 DEFAULT_T_END = 20.0
-DEFAULT_METHOD = "RK45"
-DEFAULT_FORMULATION = "baumgarte"
+#: The command answers with the library's cheapest route at the default tolerance (chapter 8: the closed
+#: form (26) with the compiled DOP853 reaches every case's accuracy first). Any other is an option:
+#: the default until issue 14 was --formulation baumgarte --method RK45.
+DEFAULT_METHOD = "ode.dop853"
+DEFAULT_FORMULATION = "closed-form"
 
 
 #: An option's value that argparse would take for an option: ``-1e-3``, ``-.5``, ``-inf``, ``-1:2:4``.
