@@ -80,7 +80,7 @@ DEFAULT_STEP = 0.02
 #: simulate: steps 0.02, 0.05 and 0.1 s give it cell for cell, 0.2 s gets 1 cell wrong, 1 s 4;
 #: the book's convergence study (chapter 12) starts at 0.08 s, 0.5 rad of the forcing.
 MAX_ANGLE_PER_STEP = 0.6
-#: The most cell-steps (cells x t_end / step) a map may ask for: the book's 60 x 60 map over 20 s
+#: The most cell-steps (cells x t_end / step) a map may ask for: a 60 x 60 map over 20 s
 #: is 3.6e6 and takes about half a minute on one core, so 1e9 would take hours.
 MAX_CELL_STEPS = 1e9
 #: Most steps of one map (t_end / step): a step of the batch costs about 1 ms, so 1e5 steps take some
