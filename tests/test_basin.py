@@ -105,6 +105,33 @@ def test_two_workers_give_the_same_map_as_one():
     assert two.workers == 2 and one.outcome.shape == (5, 8)
 
 
+def test_a_map_keeps_its_cells_motions_from_the_same_integration(slider_crank):
+    """basin_map(..., motions=h): phi(t) of every cell, sampled every h s, with the outcomes of the plain map."""
+    phi0, dphi0 = grid_values(0.0, 2 * math.pi, 8), grid_values(0.0, 3.0, 5)
+    plain = basin_map(phi0, dphi0, 8.0)
+    kept = basin_map(phi0, dphi0, 8.0, motions=0.5, workers=2)
+    motions = kept.motions
+    assert plain.motions is None and 0 < plain.fraction_rotating < 1
+    np.testing.assert_array_equal(kept.outcome, plain.outcome)
+    swing = plain.outcome == 0
+    np.testing.assert_allclose(kept.excursion[swing], plain.excursion[swing], rtol=0, atol=1e-12)
+    assert np.all(kept.excursion[~swing] > plain.excursion[~swing])      # rotations kept turning to 8 s
+    np.testing.assert_array_equal(motions.times, np.arange(17) * 0.5)
+    np.testing.assert_array_equal(motions.phi[..., 0], np.broadcast_to(phi0, (5, 8)))
+    # each sample is the batch's phi at that time: the last one its final state, an inner one simulate's
+    grid_phi, grid_dphi = np.meshgrid(phi0, dphi0)
+    batch = integrate_outcomes(slider_crank, grid_phi.ravel(), grid_dphi.ravel(), 8.0, finish_early=False)
+    np.testing.assert_allclose(motions.phi[..., -1].ravel(), batch.final_phi, rtol=0, atol=1e-9)
+    row, column = 2, 4                                       # phi0 = pi, dphi0 = 1.2 rad/s
+    run = simulate(slider_crank, initial_state(slider_crank, phi0[column], dphi0[row]), 8.0, formulation=Minimal(),
+                   method="DOP853", rtol=1e-10, atol=1e-10, t_eval=motions.times)
+    np.testing.assert_allclose(motions.phi[row, column], run.coordinate("phi"), rtol=0, atol=1e-5)
+    with pytest.raises(InputError, match="motions"):
+        basin_map(phi0, dphi0, 8.0, motions=9.0)
+    with pytest.raises(InputError, match="motions"):
+        basin_map(phi0, dphi0, 8.0, motions=-0.5)
+
+
 # -- any one-degree-of-freedom system: the four-bar -------------------------------------------
 #: A 6 x 6 grid of the four-bar's crank angles [rad] and rates [rad/s]; both outcomes occur on it.
 ANGLES = grid_values(0.0, 2.0 * math.pi, 6)

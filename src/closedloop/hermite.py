@@ -26,6 +26,10 @@ ROOT_TOLERANCE = 1e-13
 #: one step the earliest is taken.
 SAMPLES = 8
 _MAX_ITERATIONS = 60
+#: Up to this many roots are refined one by one (:func:`_first_root_of_one`, the same arithmetic): the
+#: arrays' loop costs some 20 numpy calls an iteration whatever their size, and the basin map's steps
+#: rarely have more than a few cells at a switch.
+_FEW = 8
 
 
 def values(u, g0, g1, d0, d1):
@@ -55,6 +59,10 @@ def first_root(g0, g1, d0, d1):
     g0, g1, d0, d1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (g0, g1, d0, d1)))
     scalar = g0.ndim == 0
     g0, g1, d0, d1 = (np.atleast_1d(a).astype(float) for a in (g0, g1, d0, d1))
+    if g0.size <= _FEW:                     # a few roots: one by one, the same steps without numpy's per-call cost
+        root = np.array([_first_root_of_one(*map(float, a)) for a in zip(g0.flat, g1.flat, d0.flat, d1.flat)])
+        root = root.reshape(g0.shape)
+        return float(root[0]) if scalar else root
     left, right = np.zeros_like(g0), np.ones_like(g0)
     found = g0 == 0.0
     root = np.where(found, 0.0, 1.0)

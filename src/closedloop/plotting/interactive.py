@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..studies.basin import BasinMotions
+
 __all__ = ["BasinMotions", "basin_motions", "interactive_basin_map", "interactive_work_precision",
            "InteractiveFigure", "bokeh_js_file"]
 
@@ -38,108 +40,35 @@ TAB10 = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e37
 CSS_CLASS = "closedloop-bokeh"
 
 
-@dataclass(frozen=True)
-class BasinMotions:
-    """phi(t) of every cell of a basin map, from the map's own integrator.
-
-    Attributes
-    ----------
-    times : ndarray, shape (T,)
-        Sample times [s], 0 to the map's ``t_end``.
-    phi : ndarray, shape (M, N, T)
-        Crank angle phi [rad] of cell (row, column) at each sample time (not wrapped).
-    excursion : ndarray, shape (M, N)
-        Largest |phi - phi0| [rad] over the whole run, at every step end and switch point
-        (not only the samples).
-    step : float
-        Step of the batch integrator [s], the map's.
-    """
-
-    times: np.ndarray
-    phi: np.ndarray
-    excursion: np.ndarray
-    step: float
-
-
 def basin_motions(basin, sample=0.2, workers=1):
-    """Integrate every cell of a basin map again, keeping phi(t): the motion behind each cell.
+    """The motion phi(t) behind each cell of a basin map: the map's own, or the map computed again with them.
 
-    The cells are stepped by the batch integrator of :mod:`closedloop.studies.basin` (its
-    step, switch location and sticking rule, unchanged), as :func:`~closedloop.studies.basin.basin_map`
-    does, except that a cell that has turned 2 pi stays in the batch to ``t_end``.  A cell
-    that stopped at a switch lags behind the step grid by less than a step; its phi is
-    interpolated linearly between the recorded points onto the sample times.
+    A map computed with ``basin_map(..., motions=sample)`` carries its cells' motions
+    (:class:`~closedloop.studies.basin.BasinMotions`) from its one integration; they are
+    returned as they are.  Otherwise the map is computed again, on its grid, ``t_end``, step
+    and reading, with ``motions=sample`` (every cell then runs to ``t_end``).
 
     Parameters
     ----------
     basin : closedloop.studies.basin.BasinMap
-        The map (its grid, ``t_end``, step and reading are used).
     sample : float, optional
         Spacing of the stored samples [s]; default 0.2 s (101 samples over 20 s).
     workers : int, optional
-        Processes to use, as for :func:`~closedloop.studies.basin.basin_map` (the cells are
-        dealt out in turn); 1 runs in this process.
+        Processes, as for :func:`~closedloop.studies.basin.basin_map`, if the map is computed again.
 
     Returns
     -------
     BasinMotions
     """
-    import multiprocessing
-    import os
+    from ..studies.basin import basin_map, _motion_times
 
-    from ..slider_crank import slider_crank_system
-    from ..validation import positive_number
-
-    sample = positive_number("sample", sample, unit="s")
-    if not (isinstance(workers, (int, np.integer)) and 1 <= workers <= (os.cpu_count() or 1) * 4):
-        raise ValueError(f"workers: must be an integer from 1 to {(os.cpu_count() or 1) * 4}, got {workers!r}")
-    phi_grid, dphi_grid = np.meshgrid(basin.phi0, basin.dphi0)
-    phi_flat, dphi_flat = phi_grid.ravel().astype(float), dphi_grid.ravel().astype(float)
-    count = max(1, int(math.ceil(basin.t_end / basin.step - 1e-9)))
-    samples = np.linspace(0.0, basin.t_end, int(round(basin.t_end / sample)) + 1)
-    order = [np.arange(phi_flat.size)[j::workers] for j in range(workers)]
-    tasks = [(basin.reading, phi_flat[o], dphi_flat[o], basin.t_end, count, samples) for o in order]
-    if workers == 1:
-        results = [_motion_chunk(tasks[0])]
-    else:
-        slider_crank_system(reading=basin.reading)       # derive once, before the workers fork
-        with multiprocessing.get_context("fork").Pool(workers) as pool:
-            results = pool.map(_motion_chunk, tasks)
-    phi = np.empty((phi_flat.size, samples.size))
-    excursion = np.empty(phi_flat.size)
-    for o, (part, reach) in zip(order, results):
-        phi[o], excursion[o] = part, reach
-    shape = basin.outcome.shape
-    return BasinMotions(times=samples, phi=phi.reshape(shape + (samples.size,)),
-                        excursion=excursion.reshape(shape), step=basin.t_end / count)
-
-
-def _motion_chunk(task):
-    """phi at the sample times and the largest excursion of some cells: the loop of integrate_outcomes."""
-    from ..slider_crank import initial_state, slider_crank_system
-    from ..studies import basin as batch                 # the batch integrator's own steps
-
-    reading, phi0, dphi0, t_end, count, samples = task
-    system = slider_crank_system(reading=reading)
-    model = batch._Model(system)
-    cells = batch._initial_cells(system, model, phi0, dphi0, initial_state)
-    cells.finish_early = False
-    h = t_end / count
-    times, angles = [cells.t.copy()], [cells.q.copy()]
-    for k in range(1, count + 1):
-        T = t_end if k == count else k * h
-        batch._advance(model, cells, T)
-        batch._check_stuck(model, cells, T)
-        if k == count:
-            for _ in range(batch.rule.MAX_STALLS * 4):
-                if not np.any(~cells.done & (cells.stuck < 0) & (cells.t < T)):
-                    break
-                batch._advance(model, cells, T)
-        times.append(cells.t.copy())
-        angles.append(cells.q.copy())
-    times, angles = np.array(times), np.array(angles)            # (steps + 1, cells)
-    phi = np.array([np.interp(samples, times[:, j], angles[:, j]) for j in range(angles.shape[1])])
-    return phi.reshape(angles.shape[1], samples.size), cells.excursion.copy()
+    samples = _motion_times(basin.t_end, sample)
+    kept = getattr(basin, "motions", None)
+    if kept is not None and kept.times.shape == samples.shape and np.allclose(kept.times, samples, rtol=0,
+                                                                                 atol=1e-12):
+        return kept
+    return basin_map(basin.phi0, basin.dphi0, basin.t_end, step=basin.step, reading=basin.reading,
+                     workers=workers, motions=sample).motions
 
 
 class InteractiveFigure:
@@ -207,7 +136,8 @@ def interactive_basin_map(basin, motions=None, selected=(np.pi, 1.0)):
     ----------
     basin : closedloop.studies.basin.BasinMap
     motions : BasinMotions, optional
-        The cells' motions; default ``basin_motions(basin)``.
+        The cells' motions; default the map's own (``basin_map(..., motions=0.2)``), else
+        ``basin_motions(basin)``.
     selected : (float, float), optional
         (phi0 [rad], phi0' [rad/s]) of the cell selected at first; default case 1's (pi, 1).
 

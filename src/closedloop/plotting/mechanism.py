@@ -664,6 +664,7 @@ def _animate(result, setup, draw, size, fps, speed, frames, title, dpi, alt):
     ``setup(ax)`` draws the still parts; ``draw(ax, s)`` draws the mechanism at state ``s`` and
     returns its artists, which are removed before the next frame.
     """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from PIL import Image
 
@@ -672,6 +673,7 @@ def _animate(result, setup, draw, size, fps, speed, frames, title, dpi, alt):
     times = np.linspace(t0, t1, count)
     index = np.abs(result.t[None, :] - times[:, None]).argmin(axis=1)          # the nearest output time
     fig = Figure(figsize=size, dpi=dpi)
+    canvas = FigureCanvasAgg(fig)   # one renderer for all frames: its mathtext and glyph caches are kept
     line = 16.0 / (72.0 * size[1])                     # one line of 11-12 pt text, as a fraction of the height
     ax = fig.add_axes((0.0, 0.0, 1.0, 1.0 - 2.6 * line))
     ax.set_aspect("equal")
@@ -690,9 +692,10 @@ def _animate(result, setup, draw, size, fps, speed, frames, title, dpi, alt):
             artist.remove()
         moving = draw(ax, result.s[:, index[k]])
         stamp.set_text(f"t = {result.t[index[k]]:.2f} s{pace}")
-        buffer = io.BytesIO()
-        fig.savefig(buffer, format="png", dpi=dpi)
-        image = Image.open(buffer).convert("RGB").quantize(colors=32, method=Image.Quantize.MEDIANCUT, dither=0)
+        canvas.draw()              # the pixels savefig(format="png") would write, without encoding them
+        image = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba()).convert("RGB")
+        # 32 colours by the fast octree (MEDIANCUT took 4 of every 5 ms of a frame; the frames look the same)
+        image = image.quantize(colors=32, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
         packed = io.BytesIO()
         image.save(packed, format="png", optimize=True)
         frames_png.append(base64.encodebytes(packed.getvalue()).decode("ascii"))

@@ -70,7 +70,7 @@ from ..slider_crank import (ANGLE_LIMIT, DEFAULT_READING, MOTIONS, SPEED_LIMIT, 
 from ..slider_crank import initial_state as slider_crank_initial_state
 from ..validation import finite_array, finite_number, positive_integer, positive_number
 
-__all__ = ["BasinMap", "basin_map", "integrate_outcomes", "reference_outcomes", "boundary_cells",
+__all__ = ["BasinMap", "BasinMotions", "basin_map", "integrate_outcomes", "reference_outcomes", "boundary_cells",
            "compare_outcomes", "Agreement", "DEFAULT_STEP", "MAX_STEPS", "grid_values"]
 
 #: Step of the fixed-step scheme [s]; its choice is measured in the book's basin chapter.
@@ -80,7 +80,7 @@ DEFAULT_STEP = 0.02
 #: simulate: steps 0.02, 0.05 and 0.1 s give it cell for cell, 0.2 s gets 1 cell wrong, 1 s 4;
 #: the book's convergence study (chapter 12) starts at 0.08 s, 0.5 rad of the forcing.
 MAX_ANGLE_PER_STEP = 0.6
-#: The most cell-steps (cells x t_end / step) a map may ask for: the book's 60 x 60 map over 20 s
+#: The most cell-steps (cells x t_end / step) a map may ask for: a 60 x 60 map over 20 s
 #: is 3.6e6 and takes about half a minute on one core, so 1e9 would take hours.
 MAX_CELL_STEPS = 1e9
 #: Most steps of one map (t_end / step): a step of the batch costs about 1 ms, so 1e5 steps take some
@@ -209,10 +209,43 @@ class BatchOutcome:
     cell_evaluations: int        # the same, summed over the cells evaluated
     max_constraint_error: float  # largest |f| (32) at the final states
     step: float
+    motion: np.ndarray = None    # q at the sample times, shape (K, T), if asked for (``sample_times``)
+
+
+@dataclass(frozen=True)
+class BasinMotions:
+    """phi(t) of every cell of a basin map, from the map's own integrator (``basin_map(..., motions=...)``).
+
+    Attributes
+    ----------
+    times : ndarray, shape (T,)
+        Sample times [s], 0 to the map's ``t_end``.
+    phi : ndarray, shape (M, N, T)
+        Crank angle phi [rad] of cell (row, column) at each sample time (not wrapped).
+    excursion : ndarray, shape (M, N)
+        Largest |phi - phi0| [rad] over the whole run, at every step end and switch point
+        (not only the samples).
+    step : float
+        Step of the batch integrator [s], the map's.
+    """
+
+    times: np.ndarray
+    phi: np.ndarray
+    excursion: np.ndarray
+    step: float
+
+
+def _motion_times(t_end, sample):
+    """Times 0, sample, 2 sample, ... t_end [s] at which a map's motions are kept (``sample`` > 0 s)."""
+    t_end = positive_number("t_end", t_end, unit="s")
+    sample = positive_number("motions", sample, unit="s")
+    if sample > t_end:
+        raise InputError(f"motions: the sample spacing must be <= t_end = {t_end:g} s, got {sample:g} s")
+    return np.linspace(0.0, t_end, int(round(t_end / sample)) + 1)
 
 
 def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progress=None, finish_early=True, *,
-                       initial_state=None):
+                       initial_state=None, sample_times=None):
     """Integrate K initial conditions at once and classify each (the batch integrator).
 
     Parameters
@@ -241,6 +274,12 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
         independent coordinate and rate must be q0 and qd0.  Default: for a
         :class:`~closedloop.slider_crank.SliderCrankSystem`,
         :func:`closedloop.slider_crank.initial_state`; any other system must pass one.
+    sample_times : array_like, optional, keyword only
+        Times [s] in [0, t_end] at which to keep every cell's q (its motion): the
+        result's ``motion``, shape (K, T).  Every cell is then integrated to
+        ``t_end`` (as with ``finish_early=False``, so ``excursion`` is that of the
+        whole run); q is interpolated linearly between the step ends, and a cell
+        that stopped at a switch, less than a step behind, between its own times.
 
     Returns
     -------
@@ -256,6 +295,11 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
         raise InputError("phi0, dphi0: must be finite numbers")
     _check_time(t_end, step)
     _check_step(system, step, dphi0)
+    if sample_times is not None:
+        sample_times = finite_array("sample_times", sample_times)
+        if sample_times.ndim != 1 or np.any(sample_times < 0) or np.any(sample_times > t_end):
+            raise InputError(f"sample_times: need a list of times within 0 .. t_end = {t_end:g} s")
+        finish_early = False                         # every cell's motion is kept to t_end
     work = phi0.size * t_end / step
     if work > MAX_CELL_STEPS:
         raise InputError(f"t_end: {phi0.size} cells x t_end / step = {work:.3g} cell-steps, more than the "
@@ -268,6 +312,7 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
     count = max(1, int(math.ceil(t_end / step - 1e-9)))
     h = t_end / count
     report = max(1, count // 100)
+    track = None if sample_times is None else ([cells.t.copy()], [cells.q.copy()])
     for k in range(1, count + 1):
         T = t_end if k == count else k * h
         _advance(model, cells, T)
@@ -277,19 +322,27 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
                 if not np.any(~cells.done & (cells.stuck < 0) & (cells.t < T)):
                     break
                 _advance(model, cells, T)
+        if track is not None:
+            track[0].append(cells.t.copy())
+            track[1].append(cells.q.copy())
         if progress is not None and (k % report == 0 or k == count):
             progress(k / count)
         if np.all(cells.done):                       # every cell turned 2 pi: nothing left to decide
             if progress is not None and k < count:
                 progress(1.0)
             break
+    motion = None
+    if track is not None:
+        times, angles = np.array(track[0]), np.array(track[1])          # (steps + 1, K)
+        motion = np.array([np.interp(sample_times, times[:, j], angles[:, j]) for j in range(phi0.size)])
+        motion = motion.reshape(phi0.size, sample_times.size)
     s_final, _ = model.configuration(cells.q, cells.z)
     f_final = system.constraints_and_jacobian_many(s_final)[0]
     return BatchOutcome(
         codes=motion_codes(cells.excursion), excursion=cells.excursion.copy(), decided_at=cells.decided_at,
         stuck_at=cells.first_stuck, released_at=cells.first_release, final_phi=cells.q.copy(), final_dphi=cells.qd.copy(),
         switch_events=cells.events, evaluations=model.evaluations, cell_evaluations=model.cell_evaluations,
-        max_constraint_error=float(np.max(np.linalg.norm(f_final, axis=0))), step=h,
+        max_constraint_error=float(np.max(np.linalg.norm(f_final, axis=0))), step=h, motion=motion,
     )
 
 
@@ -615,6 +668,9 @@ class BasinMap:
         Largest |f| (32) at the final states.
     reading : str
     version : str
+    motions : BasinMotions or None
+        phi(t) of every cell, if the map was asked for them (``basin_map(..., motions=...)``);
+        the cells were then integrated to ``t_end``, and ``excursion`` is that of the whole run.
     """
 
     phi0: np.ndarray
@@ -634,6 +690,7 @@ class BasinMap:
     max_constraint_error: float
     reading: str
     version: str = field(default="")
+    motions: BasinMotions = None
 
     @property
     def fraction_rotating(self):
@@ -678,15 +735,15 @@ def _check_grid(phi0_values, dphi0_values):
 
 def _chunk(args):
     """One worker's share of the grid (top level, so that multiprocessing can pickle it)."""
-    reading, phi0, dphi0, t_end, step = args
+    reading, phi0, dphi0, t_end, step, samples = args
     start = time.process_time()
     result = integrate_outcomes(slider_crank_system(reading=reading), phi0, dphi0, t_end, step,
-                                initial_state=slider_crank_initial_state)
+                                initial_state=slider_crank_initial_state, sample_times=samples)
     return result, time.process_time() - start
 
 
 def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, reading=None, workers=1,
-              progress=None):
+              progress=None, motions=None):
     """Classify every cell of a grid of initial conditions: full rotation or oscillation.
 
     Parameters
@@ -706,6 +763,11 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
     progress : callable, optional
         ``progress(fraction)``, called as the work advances (only with one worker
         it follows time; with several, it follows finished chunks).
+    motions : float, optional
+        Also keep each cell's motion phi(t), sampled every ``motions`` seconds from 0 to
+        ``t_end`` (the map's ``motions``, a :class:`BasinMotions`), from the same integration:
+        every cell then runs to ``t_end`` instead of leaving the batch once it has turned 2 pi,
+        which changes no outcome.  Default None: no motions.
 
     Returns
     -------
@@ -713,6 +775,7 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
     """
     phi0_values, dphi0_values = _check_grid(phi0_values, dphi0_values)
     _check_time(t_end, step)
+    samples = None if motions is None else _motion_times(t_end, motions)
     reading = get_reading(DEFAULT_READING if reading is None else reading).name
     if not (isinstance(workers, (int, np.integer)) and 1 <= workers <= (os.cpu_count() or 1) * 4):
         raise InputError(f"workers: must be an integer from 1 to {(os.cpu_count() or 1) * 4}, got {workers!r}")
@@ -721,12 +784,14 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
     wall, cpu = time.perf_counter(), time.process_time()
     if workers == 1:
         results = [(integrate_outcomes(slider_crank_system(reading=reading), phi_flat, dphi_flat, t_end, step,
-                                       progress=progress, initial_state=slider_crank_initial_state), 0.0)]
+                                       progress=progress, initial_state=slider_crank_initial_state,
+                                       sample_times=samples), 0.0)]
         order = [np.arange(phi_flat.size)]
     else:
         order = [np.arange(phi_flat.size)[j::workers] for j in range(workers)]   # interleaved: equal work
-        tasks = [(reading, phi_flat[o], dphi_flat[o], t_end, step) for o in order]
-        slider_crank_system(reading=reading)            # derive once, before the workers fork
+        tasks = [(reading, phi_flat[o], dphi_flat[o], t_end, step, samples) for o in order]
+        # derive once, and find the forcing's period (sympy, a second or so), before the workers fork
+        rule.forcing_period(slider_crank_system(reading=reading))
         with multiprocessing.get_context("fork").Pool(workers) as pool:
             results = []
             for done, item in enumerate(pool.imap(_chunk, tasks), 1):
@@ -741,6 +806,13 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
         fields_["decided_at"][o] = result.decided_at
         fields_["stuck_at"][o] = result.stuck_at
     shape = (dphi0_values.size, phi0_values.size)
+    kept = None
+    if samples is not None:
+        phi = np.empty((size, samples.size))
+        for o, (result, _) in zip(order, results):
+            phi[o] = result.motion
+        kept = BasinMotions(times=samples, phi=phi.reshape(shape + (samples.size,)),
+                            excursion=fields_["excursion"].reshape(shape).copy(), step=results[0][0].step)
     return BasinMap(
         phi0=phi0_values, dphi0=dphi0_values, outcome=fields_["outcome"].astype(int).reshape(shape),
         t_end=float(t_end), step=results[0][0].step, labels=dict(enumerate(MOTIONS)),
@@ -750,7 +822,7 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
         evaluations=sum(r.evaluations for r, _ in results),
         cell_evaluations=sum(r.cell_evaluations for r, _ in results),
         max_constraint_error=max(r.max_constraint_error for r, _ in results), reading=reading,
-        version=__version__,
+        version=__version__, motions=kept,
     )
 
 
