@@ -89,8 +89,8 @@ def test_a_run_too_loose_to_classify_is_refused(system):
 
 
 def test_the_command_line_prints_the_warning_and_fails(capsys):
-    status = main(["simulate", "--case", "2", "--formulation", "augmented", "--rtol", "1e-3", "--atol", "1e-3",
-                   "--t-end", "20"])
+    status = main(["simulate", "--case", "2", "--formulation", "augmented", "--method", "RK45", "--rtol", "1e-3",
+                   "--atol", "1e-3", "--t-end", "20"])
     out, err = capsys.readouterr()
     assert status == 1
     assert "motion: not classified (see the warning)" in out

@@ -474,8 +474,11 @@ _SIGNALS = {signal.SIGINT: (KeyboardInterrupt, 130, "interrupted"), signal.SIGTE
 
 
 @contextlib.contextmanager
-def _signals_as_exceptions():
+def _signals_as_exceptions(received):
     """SIGINT raises KeyboardInterrupt and SIGTERM :class:`_Terminated` in this process, once.
+
+    The signal's number is appended to the list ``received`` first, so that the caller knows of
+    it even when compiled code turns the exception into another.
 
     The first signal starts an orderly end (basin's ``with Pool`` terminates its workers);
     further ones are ignored while it runs. Processes forked meanwhile (basin's workers)
@@ -496,6 +499,7 @@ def _signals_as_exceptions():
             return
         for other in previous:
             signal.signal(other, signal.SIG_IGN)
+        received.append(signum)
         raise _SIGNALS[signum][0]
 
     previous = {number: signal.getsignal(number) for number in _SIGNALS}
@@ -519,13 +523,25 @@ def main(argv=None):
     0 done; 1 the run or a write failed; 2 bad input (nothing computed); 130 Ctrl-C; 143 SIGTERM.
     Every failure is one line on stderr.
     """
+    received = []
     try:
-        with _signals_as_exceptions():
+        with _signals_as_exceptions(received):
             return _run(argv)
-    except (KeyboardInterrupt, _Terminated) as stop:
-        _, status, word = next(v for v in _SIGNALS.values() if isinstance(stop, v[0]))
-        print(f"closedloop: {word}", file=sys.stderr)
-        return status
+    except BaseException as error:
+        # a signal's exception raised inside a callback from compiled code (scipy's ode calls the
+        # right-hand side from Fortran) comes out as another exception (a SystemError): the signal decides
+        stop = next((number for number, (kind, _, _) in _SIGNALS.items() if isinstance(error, kind)), None)
+        if received or stop is not None:
+            _, status, word = _SIGNALS[received[0] if received else stop]
+            print(f"closedloop: {word}", file=sys.stderr)
+            return status
+        return _failure(error)
+
+
+def _failure(error):
+    """Exit status of a run that ``error`` ended, after its one line on stderr."""
+    try:
+        raise error
     except BrokenPipeError:                    # stdout closed early (``| head``): end quietly, as Unix tools do
         with contextlib.suppress(OSError):
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
