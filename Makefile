@@ -10,9 +10,9 @@ STAMP  := $(VENV)/.installed
 # The execution cache notices edits to a notebook's own cells only: a change to the library,
 # the lock or the config must re-execute every chapter, so the cache is keyed on this hash too.
 # Every .py below src/ and exercises/checking, in subpackages too (find, not a one-level wildcard).
-SOURCE_HASH = $(shell cat $$(find src exercises/checking -name '*.py' -not -path '*/__pycache__/*' | LC_ALL=C sort) pyproject.toml requirements/lock.txt _config.yml book/data/benchmark.json | sha256sum | cut -c1-16)
+SOURCE_HASH = $(shell cat $$(find src exercises/checking -name '*.py' -not -path '*/__pycache__/*' | LC_ALL=C sort) pyproject.toml requirements/lock.txt _config.yml book/data/benchmark.json book/data/long_runs.json | sha256sum | cut -c1-16)
 
-.PHONY: book test browser student benchmark benchmark-data timings speed clean
+.PHONY: book test browser student benchmark benchmark-data long-runs-data timings speed clean
 
 $(STAMP): requirements/lock.txt pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -50,6 +50,11 @@ benchmark: $(STAMP)
 # fails until this is run after a change to the library's numerics.
 benchmark-data: $(STAMP)
 	$(BIN)/closedloop benchmark --json book/data/benchmark.json
+
+# Regenerate the 1000 s runs that chapter 9's study 3 shows (about a minute);
+# tests/test_long_runs_data.py fails until this is run after a change to the library's numerics.
+long-runs-data: $(STAMP)
+	$(BIN)/closedloop long-runs --json book/data/long_runs.json
 
 # Where readers and maintainers wait (issue 14): notebooks' execution, make test from a clean clone,
 # the command line, output grids, the basin map; every figure from one run, beside its target (~12 min).

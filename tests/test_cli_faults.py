@@ -17,6 +17,7 @@ import closedloop.simulation
 import closedloop.slider_crank
 import closedloop.studies.basin
 import closedloop.studies.benchmark
+import closedloop.studies.long_runs
 from closedloop.cli import build_parser, main
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
@@ -25,12 +26,13 @@ BASIN = ["basin", "--phi0", "0:2pi:2", "--dphi0", "0.5:1.5:1", "--t-end", "0.5",
 
 @pytest.fixture
 def no_computation(monkeypatch):
-    """Every computation of the three commands fails the test if it starts."""
+    """Every computation of the four commands fails the test if it starts."""
     def refuse(*args, **kwargs):
         raise AssertionError("a computation started before the refusal")
 
     monkeypatch.setattr(closedloop.studies.basin, "basin_map", refuse)
     monkeypatch.setattr(closedloop.studies.benchmark, "run_study", refuse)
+    monkeypatch.setattr(closedloop.studies.long_runs, "run_long_runs", refuse)
     monkeypatch.setattr(closedloop.simulation, "simulate", refuse)
     monkeypatch.setattr(closedloop.slider_crank, "slider_crank_system", refuse)
 
@@ -71,6 +73,8 @@ def bad_outputs(tmp):
         (["benchmark", "--quick", "--json", f"{tmp}/figs", "--figures", f"{tmp}/figs"], f"--json: {tmp}/figs is a folder"),
         (["benchmark", "--quick", "--json", f"{tmp}/figs/residuals_case2.png", "--figures", f"{tmp}/figs"],
          "--json, --figures: both name"),
+        (["long-runs", "--json", f"{tmp}/nope/l.json"], "--json: the folder of"),
+        (["long-runs", "--json", str(tmp)], f"--json: {tmp} is a folder"),
     ]
 
 

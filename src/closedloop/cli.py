@@ -6,6 +6,7 @@
     closedloop basin --phi0 START:STOP:N --dphi0 START:STOP:M [--t-end T] [--step H]
                      [--workers W] [--json FILE|-] [--png FILE.png]
     closedloop benchmark [--quick] [--json FILE|-] [--figures DIR]
+    closedloop long-runs --json FILE|-
 
 Bad input is reported as one line on stderr, with exit status 2, before any
 integration starts; output files count as input: a missing or unwritable
@@ -137,6 +138,10 @@ def build_parser():
     sim.add_argument("--plot", metavar="FILE.png", help="write a paper-style figure")
     _add_basin_parser(commands)
     _add_benchmark_parser(commands)
+    long_runs = commands.add_parser(
+        "long-runs", help="case 2 for 1000 s with each formulation: drift and energy balance (chapter 9)")
+    long_runs.add_argument("--json", metavar="FILE", required=True,
+                           help="write the runs' summaries, traces and provenance as JSON")
     return parser
 
 
@@ -465,6 +470,20 @@ def run_benchmark(args):
     return "\n".join(lines)
 
 
+def run_long_runs(args):
+    """Carry out ``closedloop long-runs``; returns the text to print."""
+    from .studies.long_runs import run_long_runs as run_study
+
+    _check_json_file("--json", args.json)
+    data = run_study(progress=lambda text: print(text, file=sys.stderr, flush=True))
+    _write_json(args.json, data)
+    lines = [f"{name}: {run['n_steps']} steps, max |f| {run['max_constraint_error']:.1e} m, "
+             f"max |dE - W| {run['max_balance_residual']:.1e} J" for name, run in data["runs"].items()]
+    if args.json != STDOUT:
+        lines.append(f"runs and settings written to {args.json}")
+    return "\n".join(lines)
+
+
 class _Terminated(BaseException):
     """SIGTERM, raised in the main process like KeyboardInterrupt for SIGINT (so that ``with`` blocks clean up)."""
 
@@ -562,8 +581,8 @@ def _run(argv):
     args = build_parser().parse_args(argv)
     if args.command == "basin":
         return _main_basin(args)
-    if args.command == "benchmark":
-        text = run_benchmark(args)
+    if args.command in ("benchmark", "long-runs"):
+        text = (run_benchmark if args.command == "benchmark" else run_long_runs)(args)
         print(text, file=sys.stderr if args.json == STDOUT else sys.stdout)
         return 0
     summary = run_simulate(args)
