@@ -7,6 +7,8 @@ evaluation.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .errors import ConvergenceError, SingularConfigurationError, at_time
@@ -52,6 +54,8 @@ def newton_on_constraints(evaluate, correct, s, tolerance=NEWTON_TOLERANCE, max_
         The converged state and Phi_s there, or None if Newton did not converge
         (or left the finite numbers): the caller names the failure.
     """
+    if s.ndim == 1:
+        return _newton_one_state(evaluate, correct, s, tolerance, max_iterations)
     f_tolerance = tolerance * (1.0 + np.abs(s).max(axis=0))
     for _ in range(max_iterations):
         f, Phi = evaluate(s)
@@ -63,6 +67,43 @@ def newton_on_constraints(evaluate, correct, s, tolerance=NEWTON_TOLERANCE, max_
         if step is not None:
             moved, entries = step
             if np.all(np.abs(moved).max(axis=0) <= tolerance * (1.0 + np.abs(entries).max(axis=0))):
+                return s, evaluate(s)[1]
+    return None
+
+
+def _largest_magnitude(values):
+    """``max |v|`` of a short 1-d array, as numpy's ``np.abs(v).max()`` gives it (NaN if any is NaN)."""
+    listed = np.ravel(values).tolist()
+    if not listed:
+        return np.abs(values).max()         # raises as numpy does for no values
+    largest = 0.0
+    for value in listed:
+        value = abs(value)
+        if value != value:                  # a NaN wins, as in numpy's max
+            return value
+        if value > largest:
+            largest = value
+    return largest
+
+
+def _newton_one_state(evaluate, correct, s, tolerance, max_iterations):
+    """:func:`newton_on_constraints` for one state: the same tests on Python floats.
+
+    A right-hand side of the minimal formulation runs Newton on a few numbers at
+    every evaluation; numpy's reductions cost more than the arithmetic there.
+    ``max`` and ``abs`` are exact, so every test decides as the array version does.
+    """
+    f_tolerance = tolerance * (1.0 + _largest_magnitude(s))
+    for _ in range(max_iterations):
+        f, Phi = evaluate(s)
+        if _largest_magnitude(f) <= f_tolerance:
+            return s, Phi
+        step = correct(s, f, Phi)
+        if not all(map(math.isfinite, s.tolist())):
+            break
+        if step is not None:
+            moved, entries = step
+            if _largest_magnitude(moved) <= tolerance * (1.0 + _largest_magnitude(entries)):
                 return s, evaluate(s)[1]
     return None
 
