@@ -76,6 +76,21 @@ def test_observed_rk4_map_agrees_with_linear_theory(smooth_slider_crank):
     assert (observed == theory).mean() >= 0.9
 
 
+def test_rk4_map_at_once_is_rk4_cell_by_cell(smooth_slider_crank):
+    """The map integrates its cells as one batch; each cell is the rk4 run of its own Baumgarte gains,
+    including the cells that diverge and stop early (their growth at the stop, above 1e3)."""
+    system = smooth_slider_crank
+    state = initial_state(system, CASES[2].phi0, CASES[2].dphi0)
+    s0, sd0 = state.s + [0.0, 1e-4, 0.0], state.sd + [0.0, 1e-3, 0.0]
+    alpha_steps, beta_steps = np.linspace(0.1, 2.5, 5), np.linspace(0.1, 4.5, 4)
+    growth = rk4_stability_map(system, s0, sd0, 1e-3, alpha_steps, beta_steps, n_steps=60)
+    one_by_one = np.array([[rk4(system, Baumgarte(a / 1e-3, b / 1e-3), s0, sd0, 1e-3, 60, divergence=1e3).growth
+                            for a in alpha_steps] for b in beta_steps])
+    assert growth.shape == (4, 5)
+    assert growth.max() > 1e3 and growth.min() < 1.0                  # decaying and stopped cells both
+    np.testing.assert_allclose(growth, one_by_one, rtol=1e-7)
+
+
 def test_rk4_takes_every_formulation_and_closed_form_is_baumgarte(smooth_slider_crank):
     """ClosedForm's generated right-hand side returns a list (for ode.dop853): rk4 took it for an array
     and raised TypeError. ClosedForm(5, 5) is (15) solved in closed form: the same steps as Baumgarte(5, 5)."""
