@@ -68,7 +68,8 @@ def time_notebook(path):
     notebook = jupytext.read(ROOT / path)
     start = time.perf_counter()
     nbclient.NotebookClient(notebook, timeout=600, kernel_name="python3",
-                            resources={"metadata": {"path": str((ROOT / path).parent)}}).execute()
+                            resources={"metadata": {"path": str((ROOT / path).parent)}}).execute(
+        stderr=subprocess.DEVNULL)              # the kernel's start-up notices, not the notebook's output
     return time.perf_counter() - start
 
 
