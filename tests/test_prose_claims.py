@@ -128,6 +128,8 @@ CLAIMS = [
      "The error falls at close to the fourth order of RK4", ("4",)),
     ("12-basins.md", "ch12-margin-over-error",
      "At the step of the maps (grey line) the error is", ()),
+    ("12-basins.md", "ch12-map-step",
+     "Why, then, can a fixed step of", ()),
     ("12-basins.md", "ch12-zoom-most-changes",
      "At the finer resolution the boundary is still a single curve", ()),
     ("13-four-bar.md", "ch13-cond-phi-z-growth",
