@@ -94,6 +94,24 @@ def test_the_sympy_baseline_is_the_same_mechanism(quick):
     assert 0.1 < rows[1e-9]["error_t10"] / library[1e-9]["error_t10"] < 10
 
 
+def test_a_baseline_run_that_never_ends_is_stopped_by_its_evaluation_cap():
+    """Integrating through the gas force's switches, LSODA at rtol 1e-10 chatters in case 3 for ever
+    (it ran for more than ten minutes in the study); max_nfev stops any run and names where."""
+    from closedloop.errors import InputError, IntegrationError
+    from closedloop.slider_crank import get_case, initial_state, slider_crank_system
+    from closedloop.studies.baseline import LagrangesBaseline
+
+    case = get_case(2)
+    state = initial_state(slider_crank_system(), case.phi0, case.dphi0)
+    baseline = LagrangesBaseline()
+    done = baseline.simulate(state, 1.0, method="RK45", rtol=1e-6, atol=1e-6, max_nfev=10_000)
+    with pytest.raises(IntegrationError, match=r"stopped at t = [\d.e-]+ s after max_nfev = 20 evaluations"):
+        baseline.simulate(state, 1.0, method="RK45", rtol=1e-6, atol=1e-6, max_nfev=20)
+    assert done.nfev > 20 and done.t[-1] == 1.0
+    with pytest.raises(InputError, match="max_nfev"):
+        baseline.simulate(state, 1.0, max_nfev=0)
+
+
 def fake(case, key, cpu, error):
     return {"case": case, "formulation": key, "label": key, "method": "RK45", "rtol": 1e-6, "status": "ok",
             "cpu_s": cpu, "error_t10": error}

@@ -41,12 +41,18 @@ from .. import gas_law
 from ..errors import IntegrationError
 from ..methods import SOLVE_IVP_METHODS
 from ..slider_crank import DEFAULT_READING, OMEGA, TORQUE_RIPPLE, SliderCrankParameters, get_reading
-from ..validation import instance_of, one_of, positive_number
+from ..validation import instance_of, one_of, positive_integer, positive_number
 
 __all__ = ["LagrangesBaseline", "BaselineResult"]
 
 #: The solve_ivp methods the baseline accepts.
 BASELINE_METHODS = SOLVE_IVP_METHODS
+#: Evaluations a baseline run may take (the longest run of the benchmark study takes about 10 000).
+DEFAULT_MAX_NFEV = 200_000
+
+
+class _TooManyEvaluations(Exception):
+    """Raised inside solve_ivp's loop when a baseline run exceeds its max_nfev."""
 #: The printers of lambdify the baseline can use (see the module's notes).
 BASELINE_MODULES = ("numpy", "math")
 
@@ -154,7 +160,8 @@ class LagrangesBaseline:
         accelerations = np.linalg.solve(mass, forcing)[:3]
         return np.concatenate((y[3:], np.ravel(accelerations)))
 
-    def simulate(self, initial_state, t_end=20.0, method="RK45", rtol=1e-9, atol=1e-9, t_eval=None):
+    def simulate(self, initial_state, t_end=20.0, method="RK45", rtol=1e-9, atol=1e-9, t_eval=None,
+                 max_nfev=DEFAULT_MAX_NFEV):
         """Integrate from ``initial_state`` (an InitialState) with solve_ivp, as a user would.
 
         Parameters
@@ -169,6 +176,11 @@ class LagrangesBaseline:
             > 0.
         t_eval : array_like, optional
             Output times; default: the solver's own steps.
+        max_nfev : int, optional
+            Right-hand-side evaluations allowed. Integrating straight through the gas force's
+            switches, as the usual way does, a method can chatter at a switch for ever (LSODA at
+            rtol 1e-10 in case 3 did, for more than ten minutes, while rtol 1e-9 takes 1 592
+            evaluations); the run then stops with an IntegrationError.
 
         Returns
         -------
@@ -185,9 +197,23 @@ class LagrangesBaseline:
         one_of("method", method, BASELINE_METHODS)
         positive_number("rtol", rtol)
         positive_number("atol", atol)
+        positive_integer("max_nfev", max_nfev)
         y0 = np.concatenate((initial_state.s, initial_state.sd))
+        calls = [0]
+
+        def rhs(t, y):
+            calls[0] += 1
+            if calls[0] > max_nfev:
+                raise _TooManyEvaluations(t)
+            return self.rhs(t, y)
+
         start = time.process_time()
-        sol = solve_ivp(self.rhs, (0.0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval)
+        try:
+            sol = solve_ivp(rhs, (0.0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval)
+        except _TooManyEvaluations as stop:
+            raise IntegrationError(f"baseline {method} at rtol {rtol:g} stopped at t = {stop.args[0]:.6g} s after "
+                                   f"max_nfev = {max_nfev} evaluations: it chatters at a switch of the gas "
+                                   "force, which it integrates through") from None
         cpu_time = time.process_time() - start
         if sol.status != 0:
             reached = sol.t[-1] if sol.t.size else 0.0
