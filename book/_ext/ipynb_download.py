@@ -39,6 +39,7 @@ STUDENT_PAGES = ["exercises/[0-9][0-9]-*"]
 DOWNLOAD_FILES = {
     "exercises/[0-9][0-9]-*": ["exercises/checking"],
     "chapters/08-error-vs-runtime": ["book/data/benchmark.json"],
+    "chapters/09-stiffness-and-long-runs": ["book/data/long_runs.json"],
 }
 RUN_NOTE = ("> **To run this notebook** you need Python 3.11 with the `closedloop` library installed: "
             "`pip install .` in a copy of the book's repository (its README says more).")
