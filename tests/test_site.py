@@ -16,7 +16,7 @@ README's build command, ``make book``, beside the library's tests), serves ``_bu
 - a code block that scrolls sideways or is cut by the text column (solutions opened first).
 
 Besides: every generated page is reachable from the table of contents, a solution dropdown opens on
-click, and every chapter downloads as an executed notebook. Screenshots of every page (JPEG) land in
+click, and every chapter downloads as an executed notebook. Screenshots of every page land in
 ``_build/screenshots`` to be looked at. If Chromium is not installed, the test is skipped and says
 so. With ``CLOSEDLOOP_SITE_BUILT=1`` the test reads the ``_build/html`` already built instead of
 running ``make book``.
@@ -154,8 +154,7 @@ def test_page_is_clean(browser, site, page_name):
     page, problems = open_page(browser, site, page_name)
     shots = ROOT / "_build" / "screenshots"
     shots.mkdir(exist_ok=True)
-    # JPEG: a long page's PNG costs twice the time to encode, for a picture only looked at
-    page.screenshot(path=str(shots / (page_name.replace("/", "_") + ".jpg")), full_page=True, type="jpeg", quality=80)
+    page.screenshot(path=str(shots / (page_name.replace("/", "_") + ".png")), full_page=True)
     page.evaluate(OPEN_EVERYTHING)
     found = page.evaluate(MEASURE)
     page.close()
