@@ -392,14 +392,22 @@ def load_study(path):
     Returns the dict of :func:`run_study`, with one more key, ``"current"``: True
     when its ``source_fingerprint`` is that of the library now imported.
     """
+    return _read_with_provenance(path, ("references", "rows"), "a study", "benchmark")
+
+
+def _read_with_provenance(path, parts, what, command):
+    """The JSON file at ``path`` that ``closedloop COMMAND --json`` wrote, with its provenance
+    (:func:`_provenance`) and ``parts`` checked, and one more key, ``"current"``: True when its
+    ``source_fingerprint`` is that of the library now imported.  ``what`` names it in errors.
+    """
     try:
         with open(path, encoding="utf-8") as stream:
             data = json.load(stream)
     except (OSError, ValueError) as error:
-        raise InputError(f"path: cannot read a study from {str(path)!r}: {error}") from None
-    missing = {"closedloop_version", "source_fingerprint", "settings", "machine", "references", "rows"} - set(data)
+        raise InputError(f"path: cannot read {what} from {str(path)!r}: {error}") from None
+    missing = {"closedloop_version", "source_fingerprint", "settings", "machine", *parts} - set(data)
     if missing:
-        raise InputError(f"path: {str(path)!r} lacks {sorted(missing)}; write it with closedloop benchmark --json")
+        raise InputError(f"path: {str(path)!r} lacks {sorted(missing)}; write it with closedloop {command} --json")
     data["current"] = data["source_fingerprint"] == source_fingerprint()
     return data
 

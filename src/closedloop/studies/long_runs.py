@@ -14,7 +14,6 @@ library imported now (as chapter 8 does with ``book/data/benchmark.json``).
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import asdict, dataclass
 
@@ -25,7 +24,7 @@ from ..errors import InputError
 from ..formulations import Augmented, Baumgarte, Minimal, Orthogonal
 from ..simulation import simulate
 from ..slider_crank import CASES, initial_state, slider_crank_system
-from .benchmark import _provenance, source_fingerprint
+from .benchmark import _provenance, _read_with_provenance
 
 __all__ = ["LongRunSettings", "DEFAULT_LONG_RUN_SETTINGS", "long_run_formulations", "run_long_runs",
            "load_long_runs"]
@@ -156,17 +155,9 @@ def load_long_runs(path):
     more key, ``"current"``: True when its ``source_fingerprint`` is that of the
     library now imported.
     """
-    try:
-        with open(path, encoding="utf-8") as stream:
-            data = json.load(stream)
-    except (OSError, ValueError) as error:
-        raise InputError(f"path: cannot read long runs from {str(path)!r}: {error}") from None
-    missing = {"closedloop_version", "source_fingerprint", "settings", "machine", "t", "runs"} - set(data)
-    if missing:
-        raise InputError(f"path: {str(path)!r} lacks {sorted(missing)}; write it with closedloop long-runs --json")
+    data = _read_with_provenance(path, ("t", "runs"), "long runs", "long-runs")
     data["t"] = np.asarray(data["t"])
     for run in data["runs"].values():
         for key in ("constraint_error", "balance_residual"):
             run[key] = np.asarray(run[key])
-    data["current"] = data["source_fingerprint"] == source_fingerprint()
     return data
