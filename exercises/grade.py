@@ -542,8 +542,10 @@ def grade(folder, out, chapter=None, timeout=300.0, jobs=1, isolated=None, check
     list of Graded
         In the gradebook's order (by submission name).
     """
-    if not timeout > 0:
+    if not (timeout > 0 and math.isfinite(timeout)):
         raise ValueError(f"timeout must be a positive number of seconds, got {timeout!r}")
+    if chapter is not None and not (str(chapter).isdigit() and len(str(chapter)) <= 2):
+        raise ValueError(f"chapter must be a chapter's number such as 03, got {chapter!r}")
     if not (isinstance(jobs, int) and jobs >= 1):
         raise ValueError(f"jobs must be a whole number >= 1, got {jobs!r}")
     folder, out, checking = Path(folder), Path(out), Path(checking).resolve()

@@ -132,6 +132,13 @@ def faking(notebook):
     return notebook
 
 
+def planted():
+    """Whether a submission could create PLANTED; it is removed, so that a failed run leaves nothing."""
+    found = PLANTED.exists()
+    PLANTED.unlink(missing_ok=True)
+    return found
+
+
 def write(notebook, path):
     import jupytext
 
@@ -246,7 +253,7 @@ def test_a_class_is_graded_exactly(tmp_path, instructor, isolated):
         listener.close()
 
     assert (snapshot(instructor), snapshot(submitted)) == before
-    assert not PLANTED.exists(), "a submission wrote into the repository"
+    assert not planted(), "a submission wrote into the repository"
     assert listener.accepted == 0, "a submission reached the network"
     assert graders_users() == [], "a submission's process outlived its grading"
     timeout_reason = f"time limit of {TIMEOUT} s reached in code cell {loops_in}"
@@ -299,7 +306,7 @@ def test_the_guard_alone_keeps_files_and_network(tmp_path, instructor):
     finally:
         listener.close()
     assert (snapshot(instructor), snapshot(submitted)) == before
-    assert not PLANTED.exists() and listener.accepted == 0
+    assert not planted() and listener.accepted == 0
     assert read_rows(tmp_path / "out" / "gradebook.csv")[1:] == [
         ["deletes.ipynb", "ok", "0", "0", "0", "0", "0", "0",
          f"error in code cell 2 (ModuleNotFoundError) and {code_cells(deletes) - 2} more cells"],
@@ -328,4 +335,7 @@ def test_the_command_refuses_bad_arguments_before_grading(tmp_path, capsys):
     with pytest.raises(SystemExit):
         grade.main([str(tmp_path), "--timeout", "0", "--isolation", "guard"])
     assert "timeout must be a positive number" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        grade.main([str(tmp_path), "--chapter", "1; rm", "--isolation", "guard"])
+    assert "chapter must be a chapter's number such as 03, got '1; rm'" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
