@@ -2,9 +2,10 @@
 
 The submissions are made from exercise page 01 with the real tools: its reference solution (the page
 converted by jupytext), its student version (make_student.py), and variants of the reference: wrong
-answers (each check's own ``wrong_example``), a cell that raises, one that loops forever, one that
-deletes files, one that tries the network, printed fake verdicts and repeated checks; besides
-them, random bytes and a notebook of chapter 2. Every cell of the gradebook is asserted.
+answers (each check's own ``wrong_example``), a cell that raises, one that kills its kernel, one that
+loops forever, one that deletes files, one that tries the network, printed fake verdicts and
+repeated checks; besides them, random bytes and a notebook of chapter 2. Every cell of the
+gradebook is asserted.
 """
 
 import hashlib
@@ -232,6 +233,10 @@ def test_a_class_is_graded_exactly(tmp_path, instructor, isolated):
     cell, raises_in = check_cell(raising, "1.6")
     cell.source = 'raise ValueError("a student\'s bug")\n' + cell.source
     write(raising, submitted / "raises.ipynb")
+    crashing = reference()
+    cell, crashes_in = check_cell(crashing, "1.6")
+    cell.source = "import os\nos._exit(3)\n" + cell.source     # the kernel dies
+    write(crashing, submitted / "crashes.ipynb")
     looping = reference()
     cell, loops_in = check_cell(looping, "1.7")
     cell.source = "while True:\n    pass\n" + cell.source
@@ -261,6 +266,7 @@ def test_a_class_is_graded_exactly(tmp_path, instructor, isolated):
         ["submission", "status", *LABELS, "total", "reason"],
         ["chapter2.ipynb", "invalid", "0", "0", "0", "0", "0", "0",
          "a notebook of chapter 02 (it imports checking.ch02), not of chapter 01"],
+        ["crashes.ipynb", "crashed", "1", "1", "0", "0", "0", "2", f"the kernel died in code cell {crashes_in}"],
         ["deletes.ipynb", "ok", "0", "0", "0", "0", "0", "0",
          f"error in code cell 2 (ModuleNotFoundError) and {code_cells(deletes) - 2} more cells"],
         ["fake.ipynb", "ok", "0", "0", "1", "1", "1", "3", ""],
