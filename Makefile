@@ -12,7 +12,7 @@ STAMP  := $(VENV)/.installed
 # Every .py below src/ and exercises/checking, in subpackages too (find, not a one-level wildcard).
 SOURCE_HASH = $(shell cat $$(find src exercises/checking -name '*.py' -not -path '*/__pycache__/*' | LC_ALL=C sort) pyproject.toml requirements/lock.txt _config.yml book/data/benchmark.json book/data/long_runs.json | sha256sum | cut -c1-16)
 
-.PHONY: book test browser student benchmark benchmark-data long-runs-data timings speed clean
+.PHONY: book test browser student grade benchmark benchmark-data long-runs-data timings speed clean
 
 $(STAMP): requirements/lock.txt pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -41,6 +41,14 @@ test: $(STAMP) browser
 # The student version of every exercise notebook (solutions removed), for handing out.
 student: $(STAMP)
 	$(BIN)/python exercises/make_student.py _build/student
+
+# Grade a class's exercise notebooks (exercises/grade.py): SUBMISSIONS=DIR holds one notebook per student.
+# Writes OUT/gradebook.csv and OUT/feedback/ (default _build/grade); CHAPTER=NN when the notebooks do not
+# say which chapter; TIMEOUT=seconds for all of one notebook's cells (default 300); JOBS=N at once (default 1).
+grade: $(STAMP)
+	@test -n "$(SUBMISSIONS)" || { echo "usage: make grade SUBMISSIONS=DIR [CHAPTER=NN] [OUT=DIR] [TIMEOUT=S] [JOBS=N]"; exit 2; }
+	$(BIN)/python exercises/grade.py "$(SUBMISSIONS)" $(if $(OUT),--out "$(OUT)") $(if $(CHAPTER),--chapter $(CHAPTER)) \
+	  $(if $(TIMEOUT),--timeout $(TIMEOUT)) $(if $(JOBS),--jobs $(JOBS))
 
 # Error against run time of every formulation and method (closedloop.studies.benchmark); prints the tables.
 benchmark: $(STAMP)

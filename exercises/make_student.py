@@ -123,14 +123,21 @@ def write_student_versions(output: Path) -> list[Path]:
     shutil.copytree(HERE / "checking", output / "checking", dirs_exist_ok=True,
                     ignore=shutil.ignore_patterns("__pycache__"))
     written = []
-    plain = _plain_notebook()
     for source in exercise_notebooks():
-        notebook = jupytext.reads(student_markdown(source.read_text()), fmt="md:myst")
-        plain.convert_notebook(notebook, plain.Resolver(f"exercises/{source.stem}", HERE.parent))
         target = output / f"{source.stem}.ipynb"
-        jupytext.write(notebook, target, fmt="ipynb")
+        jupytext.write(student_notebook(source), target, fmt="ipynb")
         written.append(target)
     return written
+
+
+def student_notebook(source: Path):
+    """The student version of the exercise notebook ``source`` (a path in exercises/), as a notebook object."""
+    import jupytext
+
+    plain = _plain_notebook()
+    notebook = jupytext.reads(student_markdown(source.read_text()), fmt="md:myst")
+    plain.convert_notebook(notebook, plain.Resolver(f"exercises/{source.stem}", HERE.parent))
+    return notebook
 
 
 if __name__ == "__main__":

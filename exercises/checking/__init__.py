@@ -9,15 +9,27 @@ exercise label to a :class:`Check`. A notebook calls::
 The expected value is computed by the ``closedloop`` library when the check runs
 (never typed in), and compared with a tolerance. An answer still left as ``...``
 raises :class:`NotAnswered`: the student notebooks stop there, with one clear message.
+
+When the environment variable ``CHECKING_LOG`` names a file, every check also appends its
+verdict there as one JSON line, ``{"label", "verdict", "message"}``, with the verdict one of
+:data:`VERDICTS` and the message the line the student was shown. ``exercises/grade.py`` grades
+from that log, so a grade comes from the same check, and the same words, as the feedback.
 """
 
 from __future__ import annotations
 
+import json
+import os
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
 __all__ = ["Check", "NotAnswered", "WrongKind", "numeric", "choice", "symbolic", "scaled", "another_letter",
-           "make_check"]
+           "make_check", "LOG_VARIABLE", "VERDICTS"]
+
+#: The environment variable that names the file the checks log their verdicts to (for grading).
+LOG_VARIABLE = "CHECKING_LOG"
+#: A check's verdicts: "error" is the check's own failure (the book's), never the student's answer.
+VERDICTS = ("right", "not right yet", "wrong kind", "not answered", "error")
 
 
 class NotAnswered(Exception):
@@ -61,19 +73,39 @@ class Check:
 
     def __call__(self, answer) -> bool:
         if answer is Ellipsis:
-            raise NotAnswered(f"Exercise {self.label} is not yet answered: replace the ... with your answer.")
-        expected = self.expected_value()        # an error here is the book's, not the student's: it is raised
+            message = f"Exercise {self.label} is not yet answered: replace the ... with your answer."
+            _log(self.label, "not answered", message)
+            raise NotAnswered(message)
+        try:
+            expected = self.expected_value()    # an error here is the book's, not the student's: it is raised
+        except Exception as error:
+            _log(self.label, "error", f"Exercise {self.label}: the check itself failed ({type(error).__name__}).")
+            raise
         try:
             right = bool(self.compare(answer, expected))
         except WrongKind as wrong:
-            print(f"Exercise {self.label}: {wrong}.")
-            return False
+            return self._tell("wrong kind", f"Exercise {self.label}: {wrong}.")
         except Exception as error:              # the answer broke the comparison: not the kind expected
-            print(f"Exercise {self.label}: this answer can not be compared with the expected one "
-                  f"({type(error).__name__}); check what kind of answer the exercise asks for.")
-            return False
-        print(f"Exercise {self.label}: " + ("right." if right else f"not right yet. Hint: {self.hint}"))
-        return right
+            return self._tell("wrong kind", f"Exercise {self.label}: this answer can not be compared with the "
+                                            f"expected one ({type(error).__name__}); check what kind of answer "
+                                            "the exercise asks for.")
+        if right:
+            return self._tell("right", f"Exercise {self.label}: right.")
+        return self._tell("not right yet", f"Exercise {self.label}: not right yet. Hint: {self.hint}")
+
+    def _tell(self, verdict, message) -> bool:
+        """Print ``message`` for the student, log ``verdict`` for the grader; True if right."""
+        print(message)
+        _log(self.label, verdict, message)
+        return verdict == "right"
+
+
+def _log(label, verdict, message):
+    """Append one verdict to the file named by ``$CHECKING_LOG``, if it names one (see the module docstring)."""
+    path = os.environ.get(LOG_VARIABLE)
+    if path:
+        with open(path, "a", encoding="utf-8") as log:
+            log.write(json.dumps({"label": label, "verdict": verdict, "message": message}) + "\n")
 
 
 def _numbers(answer, expected):
