@@ -1,0 +1,101 @@
+"""The book's editions: English (the sources) and its translations, built from the same sources.
+
+The English edition is ``_build/html``; each translation is built from the same sources and the same
+execution cache, with Sphinx's gettext catalogues in ``locales/<language>/LC_MESSAGES`` (one ``.po``
+file per page, kept in step with the sources by ``sphinx-intl``), into ``_build/html/<language>``.
+
+As a Sphinx extension, this module puts a visible link to the same page in the other edition at the
+top of every page, and sets the tag ``language_<language>`` for text meant for one edition only. As a script, it writes the configuration of a translated edition::
+
+    python book/_ext/editions.py config vi > _build/vi/_config.yml
+
+which is ``_config.yml`` with the edition's language and title, and the execution cache of the English
+build (an absolute path, so that no notebook is executed a second time).
+
+To add a language: ``sphinx-intl update -p _build/gettext -l XX -d locales`` (after ``make translations``
+has written the templates), translate the new ``.po`` files, add ``XX`` to :data:`EDITIONS` below and to
+``LANGUAGES`` in the Makefile.
+"""
+
+from __future__ import annotations
+
+import html
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+#: Every edition: its title, and the words of the link that leads a reader to it from the other edition.
+EDITIONS = {
+    "en": {"title": "Closed-loop multibody dynamics: the slider-crank and its initial conditions",
+           "link": "Read this page in English", "name": "English"},
+    "vi": {"title": "Động lực học hệ nhiều vật có cấu trúc mạch vòng: "
+                    "cơ cấu tay quay - con trượt và điều kiện đầu",
+           "link": "Đọc trang này bằng tiếng Việt", "name": "Tiếng Việt"},
+}
+SOURCE_LANGUAGE = "en"
+
+
+def edition_folder(language: str) -> str:
+    """Where an edition lives inside ``_build/html``: ``""`` for English, ``"vi/"`` for Vietnamese."""
+    return "" if language == SOURCE_LANGUAGE else f"{language}/"
+
+
+def twin_url(pagename: str, language: str, other: str) -> str:
+    """The relative URL, from page ``pagename`` of edition ``language``, of the same page in ``other``.
+
+    >>> twin_url("chapters/06-four-cases", "en", "vi")
+    '../vi/chapters/06-four-cases.html'
+    >>> twin_url("chapters/06-four-cases", "vi", "en")
+    '../../chapters/06-four-cases.html'
+    """
+    up = "../" * (pagename.count("/") + edition_folder(language).count("/"))
+    return f"{up}{edition_folder(other)}{pagename}.html"
+
+
+def add_edition_link(app, pagename, templatename, context, doctree):
+    """Prepend the link to the other edition(s) to the page's body (pages with a body only)."""
+    language = app.config.language or SOURCE_LANGUAGE
+    if doctree is None or "body" not in context or language not in EDITIONS:
+        return
+    links = " · ".join(
+        f'<a class="edition-link" href="{html.escape(twin_url(pagename, language, other))}" '
+        f'hreflang="{other}" lang="{other}">{html.escape(EDITIONS[other]["link"])}</a>'
+        for other in EDITIONS if other != language)
+    context["body"] = f'<p class="edition-links">{links}</p>\n' + context["body"]
+
+
+def edition_config(language: str, root: Path = ROOT) -> dict:
+    """``_config.yml`` for the edition in ``language`` (see the module docstring)."""
+    import yaml
+
+    if language not in EDITIONS or language == SOURCE_LANGUAGE:
+        raise ValueError(f"language must be one of {sorted(set(EDITIONS) - {SOURCE_LANGUAGE})}, got {language!r}")
+    config = yaml.safe_load((root / "_config.yml").read_text(encoding="utf-8"))
+    config["title"] = EDITIONS[language]["title"]
+    config["execute"]["cache"] = str((root / config["execute"]["cache"]).resolve())
+    config["sphinx"]["config"]["language"] = language
+    # Jupyter Book reads these paths relative to the configuration file, which is not in the root here.
+    config["sphinx"]["local_extensions"] = {name: str((root / folder).resolve())
+                                            for name, folder in config["sphinx"]["local_extensions"].items()}
+    return config
+
+
+def tag_language(app, config):
+    """The tag ``language_<language>`` (``language_en``, ``language_vi``), for text that only one
+    edition shows: ``{only} language_vi``."""
+    app.tags.add(f"language_{config.language or SOURCE_LANGUAGE}")
+
+
+def setup(app):
+    app.connect("config-inited", tag_language)
+    app.connect("html-page-context", add_edition_link)
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
+
+
+if __name__ == "__main__":
+    import yaml
+
+    if len(sys.argv) != 3 or sys.argv[1] != "config":
+        sys.exit("usage: python book/_ext/editions.py config LANGUAGE")
+    sys.stdout.write(yaml.safe_dump(edition_config(sys.argv[2]), allow_unicode=True, sort_keys=False))
