@@ -9,7 +9,8 @@ A message is right when
 - it is translated: its ``msgstr`` is not empty and not fuzzy;
 - it keeps the source's markup: the same inline code, math, citations, glued values, cross-reference
   targets and link targets, as many times each (display texts of references are translated; their
-  targets are not);
+  targets are not); a display equation stays the same equation, only the words of its ``\text{}``
+  may be translated;
 - it uses the glossary's terms: where the English text names a term of ``book/glossary.md`` (the
   bold English words of each entry), the translation holds that entry's Vietnamese form. The glossary
   is the single list of terms, so one term never gets two translations. (The glossary page itself,
@@ -39,6 +40,9 @@ LINK_TARGET = re.compile(r"\]\((?P<target>[^)\s]+)\)")
 TARGET = re.compile(r"<(?P<target>[^<>]+)>\s*$")
 #: Roles whose text is shown to the reader and may be translated; only their ``<target>`` must stay.
 DISPLAY_ROLES = {"ref", "numref", "doc", "term", "download", "eq"}
+#: Glossary terms that are also everyday words, and the contexts where they are the everyday word:
+#: "link to the licence" is not a link of a mechanism.
+EVERYDAY = {"link": r"(?!\s+to\b)"}
 
 
 def normal(text: str) -> str:
@@ -90,7 +94,8 @@ class Term:
     def pattern(self) -> re.Pattern:
         """The English term in running text: any case, each word also in the plural."""
         words = [re.escape(word) + r"(?:s|es)?" for word in re.split(r"[\s-]+", self.english)]
-        return re.compile(r"(?<![\w-])" + r"[\s-]+".join(words) + r"(?![\w])", re.I)
+        return re.compile(r"(?<![\w-])" + r"[\s-]+".join(words) + r"(?![\w])" + EVERYDAY.get(self.english, ""),
+                          re.I)
 
 
 def glossary_terms(path: Path = GLOSSARY) -> list[Term]:
@@ -125,6 +130,14 @@ def read_catalog(path: Path):
         return read_po(handle, abort_invalid=True)
 
 
+def is_display_math(msgid: str) -> bool:
+    """A message that is a display equation (Sphinx extracts a math block's LaTeX as it stands)."""
+    return msgid.startswith(("\n", "\\begin{")) and "$" not in msgid
+
+
+TEXT_IN_MATH = re.compile(r"\\(?:text|mathrm|textrm)\{[^{}]*\}")
+
+
 def problems(path: Path, terms: list[Term] | None = None) -> list[Problem]:
     """Every message of the catalogue at ``path`` that is untranslated, fuzzy, loses markup or a term."""
     terms = glossary_terms() if terms is None else terms
@@ -141,6 +154,10 @@ def problems(path: Path, terms: list[Term] | None = None) -> list[Problem]:
             continue
         if message.fuzzy:
             say("fuzzy (the source changed: check the translation and remove the fuzzy flag)")
+        if is_display_math(message.id):       # the same equation; only the words of its \text{} may change
+            if TEXT_IN_MATH.sub("", message.id).split() != TEXT_IN_MATH.sub("", message.string).split():
+                say("a display equation changed outside its \\text{...}")
+            continue
         lost, added = markup(message.id) - markup(message.string), markup(message.string) - markup(message.id)
         if lost or added:
             say(f"markup changed: missing {sorted(lost)}, extra {sorted(added)}")
