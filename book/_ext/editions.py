@@ -87,7 +87,49 @@ def tag_language(app, config):
     app.tags.add(f"language_{config.language or SOURCE_LANGUAGE}")
 
 
+def glue_while_translating():
+    """Let a translated message use the page's glued values.
+
+    Sphinx parses each translated message as a small document of its own (``publish_msgstr``), which
+    has none of the notebook's glue data, so myst-nb's ``{glue}`` roles in it fail ("No key ... found
+    in glue data for this document"). The page's own English text, parsed first, names the same
+    glued values (the catalogue check keeps every role of a message in its translation), so myst-nb's
+    lookup here remembers the page's notebook on the parser settings, which Sphinx hands on to the
+    small document, and falls back to it there.
+    """
+    from myst_nb.ext.glue import directives, roles, utils
+
+    original = utils.retrieve_glue_data
+    if getattr(original, "falls_back_to_the_page", False):
+        return
+
+    def retrieve_glue_data(document, key):
+        if "nb_renderer" in document:
+            document.settings.translated_page_notebook = document["nb_renderer"]
+            return original(document, key)
+        renderer = getattr(document.settings, "translated_page_notebook", None)
+        if renderer is None:
+            return original(document, key)
+        document["nb_renderer"] = renderer                # lent for the lookup only: pages are pickled
+        try:
+            return original(document, key)
+        finally:
+            del document["nb_renderer"]
+
+    retrieve_glue_data.falls_back_to_the_page = True
+    for module in (utils, roles, directives):
+        module.retrieve_glue_data = retrieve_glue_data
+
+
+def forget_the_notebook(app, doctree):
+    """The page is read: drop the notebook kept on its settings (it cannot be pickled with the page)."""
+    if hasattr(doctree.settings, "translated_page_notebook"):
+        del doctree.settings.translated_page_notebook
+
+
 def setup(app):
+    glue_while_translating()
+    app.connect("doctree-read", forget_the_notebook)
     app.connect("config-inited", tag_language)
     app.connect("html-page-context", add_edition_link)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
