@@ -41,8 +41,8 @@ TARGET = re.compile(r"<(?P<target>[^<>]+)>\s*$")
 #: Roles whose text is shown to the reader and may be translated; only their ``<target>`` must stay.
 DISPLAY_ROLES = {"ref", "numref", "doc", "term", "download", "eq"}
 #: Glossary terms that are also everyday words, and the contexts where they are the everyday word:
-#: "link to the licence" is not a link of a mechanism.
-EVERYDAY = {"link": r"(?!\s+to\b)"}
+#: "link to the licence", "the link at the top of each page" are not links of a mechanism.
+EVERYDAY = {"link": r"(?!\s+(?:to|at)\b)"}
 
 
 def normal(text: str) -> str:
