@@ -21,6 +21,7 @@ UPDATE = "make translations"
 def _load(name):
     spec = importlib.util.spec_from_file_location(name, ROOT / "book" / "_ext" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module                      # dataclasses look their module up there
     spec.loader.exec_module(module)
     return module
 
@@ -96,10 +97,13 @@ def test_the_glossary_check_sees_a_synonym(tmp_path):
     catalogue.write_text('msgid ""\nmsgstr ""\n"Content-Type: text/plain; charset=UTF-8\\n"\n\n'
                          'msgid "The initial conditions of case 1."\nmsgstr "Các điều kiện ban đầu của trường hợp 1."\n\n'
                          'msgid "The crank turns."\nmsgstr "Tay quay quay."\n\n'
+                         'msgid "A link to the licence."\nmsgstr "Một đường dẫn tới giấy phép."\n\n'
+                         'msgid "Every other link turns."\nmsgstr "Mọi thanh khác đều quay."\n\n'
                          'msgid "A new page."\nmsgstr ""\n', encoding="utf-8")
     found = translations.problems(catalogue)
     assert [(p.msgid, p.reason.split(":")[0]) for p in found] == [
         ("The initial conditions of case 1.", "the glossary's 'điều kiện đầu' for 'initial conditions' is not used"),
+        ("Every other link turns.", "the glossary's 'khâu' for 'link' is not used"),
         ("A new page.", "not translated")]
 
 
