@@ -26,7 +26,7 @@ $(STAMP): requirements/lock.txt pyproject.toml
 book: $(STAMP)
 	@mkdir -p _build
 	@if [ "$$(cat _build/.source-hash 2>/dev/null)" != "$(SOURCE_HASH)" ]; then \
-	  rm -rf _build/.jupyter_cache _build/.doctrees _build/html; \
+	  rm -rf _build/.jupyter_cache _build/.doctrees _build/html $(addprefix _build/,$(LANGUAGES)); \
 	  echo "library, lock or config changed since the last build: every chapter is executed afresh"; \
 	fi
 	$(BIN)/jupyter-book build . -n -W --keep-going
@@ -42,9 +42,13 @@ book: $(STAMP)
 
 # After editing a page: bring every translation's catalogue in step with the sources (new messages
 # empty, changed ones fuzzy), then translate what `tests/test_translations.py` lists.
+# (The templates are built in their own folder: a gettext build must not share the site's doctrees.)
 translations: $(STAMP)
-	$(BIN)/jupyter-book build . --builder custom --custom-builder gettext -q
-	$(BIN)/sphinx-intl update -p _build/gettext -d locales $(foreach language,$(LANGUAGES),-l $(language))
+	@mkdir -p _build/gettext-build
+	$(BIN)/python book/_ext/editions.py config en > _build/gettext-build/_config.yml
+	$(BIN)/jupyter-book build . -q --builder custom --custom-builder gettext \
+	  --config _build/gettext-build/_config.yml --path-output _build/gettext-build
+	$(BIN)/sphinx-intl update -p _build/gettext-build/_build/gettext -d locales $(foreach language,$(LANGUAGES),-l $(language))
 
 # The site test drives Debian's chromium; install it when missing (root on CI). If that is not
 # possible, the test says so and is skipped.

@@ -10,7 +10,8 @@ top of every page, and sets the tag ``language_<language>`` for text meant for o
     python book/_ext/editions.py config vi > _build/vi/_config.yml
 
 which is ``_config.yml`` with the edition's language and title, and the execution cache of the English
-build (an absolute path, so that no notebook is executed a second time).
+build (an absolute path, so that no notebook is executed a second time). ``config en`` is the English
+configuration with those absolute paths, for the gettext build of ``make translations``.
 
 To add a language: ``sphinx-intl update -p _build/gettext -l XX -d locales`` (after ``make translations``
 has written the templates), translate the new ``.po`` files, add ``XX`` to :data:`EDITIONS` below and to
@@ -66,18 +67,24 @@ def add_edition_link(app, pagename, templatename, context, doctree):
 
 
 def edition_config(language: str, root: Path = ROOT) -> dict:
-    """``_config.yml`` for the edition in ``language`` (see the module docstring)."""
+    """``_config.yml`` for a build of the edition in ``language`` run from another folder.
+
+    The translated editions, and the gettext build that writes the templates, are built with
+    ``--path-output`` so that their doctrees never mix with the English site's. Jupyter Book reads
+    the configuration's paths relative to the configuration file, so the execution cache and the
+    local extensions are given as absolute paths: every build uses the one execution cache.
+    """
     import yaml
 
-    if language not in EDITIONS or language == SOURCE_LANGUAGE:
-        raise ValueError(f"language must be one of {sorted(set(EDITIONS) - {SOURCE_LANGUAGE})}, got {language!r}")
+    if language not in EDITIONS:
+        raise ValueError(f"language must be one of {sorted(EDITIONS)}, got {language!r}")
     config = yaml.safe_load((root / "_config.yml").read_text(encoding="utf-8"))
-    config["title"] = EDITIONS[language]["title"]
     config["execute"]["cache"] = str((root / config["execute"]["cache"]).resolve())
-    config["sphinx"]["config"]["language"] = language
-    # Jupyter Book reads these paths relative to the configuration file, which is not in the root here.
     config["sphinx"]["local_extensions"] = {name: str((root / folder).resolve())
                                             for name, folder in config["sphinx"]["local_extensions"].items()}
+    if language != SOURCE_LANGUAGE:
+        config["title"] = EDITIONS[language]["title"]
+        config["sphinx"]["config"]["language"] = language
     return config
 
 
@@ -121,6 +128,37 @@ def glue_while_translating():
         module.retrieve_glue_data = retrieve_glue_data
 
 
+def translated_toctree_captions():
+    """A transform: the captions of the table of contents ("Chapters", ...) in the edition's language.
+
+    sphinx-external-toc inserts the toctrees from ``_toc.yml`` (priority 100) after Sphinx's Locale
+    transform has translated the page (priority 20), so their captions, which the gettext build does
+    extract, would stay English. This runs just after and looks them up in the page's catalogue.
+    """
+    from sphinx import addnodes
+    from sphinx.locale import init as init_locale
+    from sphinx.transforms import SphinxTransform
+    from sphinx.util.i18n import docname_to_domain
+
+    class TranslateToctreeCaptions(SphinxTransform):
+        default_priority = 101
+
+        def apply(self, **kwargs):
+            if not self.config.language or self.config.language == SOURCE_LANGUAGE:
+                return
+            toctrees = [node for node in self.document.findall(addnodes.toctree) if node.get("caption")]
+            if not toctrees:
+                return
+            folders = [str(Path(self.env.srcdir, folder)) for folder in self.config.locale_dirs]
+            domain = docname_to_domain(self.env.docname, self.config.gettext_compact)
+            catalog, found = init_locale(folders, self.config.language, domain)
+            if found:
+                for node in toctrees:
+                    node["caption"] = catalog.gettext(node["caption"])
+
+    return TranslateToctreeCaptions
+
+
 def forget_the_notebook(app, doctree):
     """The page is read: drop the notebook kept on its settings (it cannot be pickled with the page)."""
     if hasattr(doctree.settings, "translated_page_notebook"):
@@ -129,6 +167,7 @@ def forget_the_notebook(app, doctree):
 
 def setup(app):
     glue_while_translating()
+    app.add_transform(translated_toctree_captions())
     app.connect("doctree-read", forget_the_notebook)
     app.connect("config-inited", tag_language)
     app.connect("html-page-context", add_edition_link)

@@ -10,6 +10,7 @@ sphinx-exercise shows such a title in parentheses; this post-transform, run afte
 import re
 
 from docutils import nodes
+from sphinx.transforms import SphinxTransform
 from sphinx.transforms.post_transforms import SphinxPostTransform
 
 NUMBER = re.compile(r"^(\d+(?:\.\d+)+):\s*")
@@ -35,6 +36,26 @@ def translatable(directive):
 
     Translatable.__name__ = f"Translatable{directive.__name__}"
     return Translatable
+
+
+class RegisterTranslatedExercises(SphinxTransform):
+    """After Sphinx's Locale transform (priority 20): the registry holds each exercise as translated.
+
+    sphinx-exercise keeps a copy of each exercise, made while the page is parsed, and builds its
+    solutions' titles ("Solution to Exercise 6.3 (title)") from that copy: in a translated edition
+    they would show the English title. The copy is renewed once the page is translated.
+    """
+
+    default_priority = 21
+
+    def apply(self, **kwargs):
+        from sphinx_exercise.nodes import exercise_enumerable_node, exercise_node
+
+        registry = getattr(self.env, "sphinx_exercise_registry", {})
+        for node in self.document.findall(lambda n: isinstance(n, (exercise_node, exercise_enumerable_node))):
+            entry = registry.get(node.get("label"))
+            if entry is not None and entry.get("docname") == self.env.docname:
+                entry["node"] = node.deepcopy()
 
 
 class OfferExerciseTitles(SphinxPostTransform):
@@ -90,6 +111,7 @@ def setup(app):
     app.setup_extension("sphinx_exercise")
     app.add_directive("exercise", translatable(ExerciseDirective), override=True)
     app.add_directive("exercise-start", translatable(ExerciseStartDirective), override=True)
+    app.add_transform(RegisterTranslatedExercises)
     app.add_post_transform(OfferExerciseTitles)
     app.add_post_transform(NumberExerciseTitles)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
