@@ -1,5 +1,5 @@
 # Two set-up commands for a fresh machine (see README.md):
-#   make book   builds the book into _build/html
+#   make book   builds the book into _build/html, and its Vietnamese edition into _build/html/vi
 #   make test   runs the test suite (library, chapters, and the built site in headless Chromium)
 # Each creates .venv from the pinned requirements/lock.txt when it is missing or out of date.
 
@@ -12,7 +12,10 @@ STAMP  := $(VENV)/.installed
 # Every .py below src/ and exercises/checking, in subpackages too (find, not a one-level wildcard).
 SOURCE_HASH = $(shell cat $$(find src exercises/checking -name '*.py' -not -path '*/__pycache__/*' | LC_ALL=C sort) pyproject.toml requirements/lock.txt _config.yml book/data/benchmark.json book/data/long_runs.json | sha256sum | cut -c1-16)
 
-.PHONY: book test browser student grade benchmark benchmark-data long-runs-data timings speed clean
+# The translated editions (book/_ext/editions.py), each from locales/<language>/LC_MESSAGES.
+LANGUAGES := vi
+
+.PHONY: book translations test browser student grade benchmark benchmark-data long-runs-data timings speed clean
 
 $(STAMP): requirements/lock.txt pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -23,11 +26,29 @@ $(STAMP): requirements/lock.txt pyproject.toml
 book: $(STAMP)
 	@mkdir -p _build
 	@if [ "$$(cat _build/.source-hash 2>/dev/null)" != "$(SOURCE_HASH)" ]; then \
-	  rm -rf _build/.jupyter_cache _build/.doctrees _build/html; \
+	  rm -rf _build/.jupyter_cache _build/.doctrees _build/html $(addprefix _build/,$(LANGUAGES)); \
 	  echo "library, lock or config changed since the last build: every chapter is executed afresh"; \
 	fi
 	$(BIN)/jupyter-book build . -n -W --keep-going
+	@# each translation: the same sources and execution cache (nothing runs twice), its own catalogue
+	@for language in $(LANGUAGES); do \
+	  mkdir -p _build/$$language && \
+	  $(BIN)/python book/_ext/editions.py config $$language > _build/$$language/_config.yml && \
+	  $(BIN)/jupyter-book build . -n -W --keep-going --config _build/$$language/_config.yml \
+	    --path-output _build/$$language && \
+	  rm -rf _build/html/$$language && cp -r _build/$$language/_build/html _build/html/$$language || exit 1; \
+	done
 	@echo "$(SOURCE_HASH)" > _build/.source-hash
+
+# After editing a page: bring every translation's catalogue in step with the sources (new messages
+# empty, changed ones fuzzy), then translate what `tests/test_translations.py` lists.
+# (The templates are built in their own folder: a gettext build must not share the site's doctrees.)
+translations: $(STAMP)
+	@mkdir -p _build/gettext-build
+	$(BIN)/python book/_ext/editions.py config en > _build/gettext-build/_config.yml
+	$(BIN)/jupyter-book build . -q --builder custom --custom-builder gettext \
+	  --config _build/gettext-build/_config.yml --path-output _build/gettext-build
+	$(BIN)/sphinx-intl update -p _build/gettext-build/_build/gettext -d locales $(foreach language,$(LANGUAGES),-l $(language))
 
 # The site test drives Debian's chromium; install it when missing (root on CI). If that is not
 # possible, the test says so and is skipped.

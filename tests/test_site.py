@@ -15,8 +15,10 @@ README's build command, ``make book``, beside the library's tests), serves ``_bu
 - a build marker (``MARKERS``) anywhere in the page's text, solutions included;
 - a code block that scrolls sideways or is cut by the text column (solutions opened first).
 
+Every page is opened in both editions: English (``_build/html``) and Vietnamese (``_build/html/vi``).
 Besides: every generated page is reachable from the table of contents, a solution dropdown opens on
-click, and every chapter downloads as an executed notebook. Screenshots of every page land in
+click, each page's link to the other edition opens the same page there, and every chapter downloads as
+an executed notebook. Screenshots of every page land in
 ``_build/screenshots`` to be looked at. If Chromium is not installed, the test is skipped and says
 so. With ``CLOSEDLOOP_SITE_BUILT=1`` the test reads the ``_build/html`` already built instead of
 running ``make book``.
@@ -41,6 +43,8 @@ MAX_OUTPUT_LINES = 20
 MARKERS = ("BEGIN SOLUTION", "END SOLUTION", "STUDENT:")
 #: Pages Sphinx writes that need no link from the table of contents.
 UNLISTED = {"genindex.html", "search.html", "404.html"}
+#: The editions, as folders of _build/html: English at the top, each translation in its own folder.
+EDITIONS = ("", "vi/")
 
 
 def toc_pages():
@@ -149,7 +153,7 @@ OPEN_EVERYTHING = """() => {
 }"""
 
 
-@pytest.mark.parametrize("page_name", ["index", *toc_pages()])
+@pytest.mark.parametrize("page_name", [edition + page for edition in EDITIONS for page in ["index", *toc_pages()]])
 def test_page_is_clean(browser, site, page_name):
     page, problems = open_page(browser, site, page_name)
     shots = ROOT / "_build" / "screenshots"
@@ -171,15 +175,37 @@ def test_page_is_clean(browser, site, page_name):
         ("outputs wider than the text column", found["wideTables"]),
     ] if items]
     assert faults == []
-    if page_name.startswith("chapters/"):
+    if page_name.removeprefix("vi/").startswith("chapters/"):
         assert math["blocks"] > 0 and found["images"], "a chapter without math or figures"
 
 
-def test_every_page_is_reachable_from_the_table_of_contents(site):
+@pytest.mark.parametrize("edition", EDITIONS)
+def test_every_page_is_reachable_from_the_table_of_contents(site, edition):
     listed = {f"{name}.html" for name in toc_pages()} | {"index.html"}
-    built = {str(path.relative_to(HTML)) for path in HTML.rglob("*.html")
-             if not path.relative_to(HTML).parts[0].startswith("_")}
+    folder = HTML / edition
+    others = {other.strip("/") for other in EDITIONS if other}
+    built = {str(path.relative_to(folder)) for path in folder.rglob("*.html")
+             if not path.relative_to(folder).parts[0].startswith("_") and path.relative_to(folder).parts[0] not in others}
+    assert listed <= built, f"pages of the table of contents missing from the {edition or 'English'} edition"
     assert built - listed - UNLISTED == set(), "pages no reader can reach from the table of contents"
+
+
+@pytest.mark.parametrize("page_name", ["chapters/06-four-cases", "exercises/03-baumgarte", "book/glossary"])
+def test_the_edition_links_open_the_same_page(browser, site, page_name):
+    """English to Vietnamese and back, by clicking the link at the top of the page."""
+    page, problems = open_page(browser, site, page_name)
+    english_title = page.locator("article h1").first.inner_text()
+    page.locator("p.edition-links a[hreflang=vi]").click()
+    page.wait_for_load_state("networkidle")
+    assert page.url == f"{site}/vi/{page_name}.html"
+    assert page.evaluate("document.documentElement.lang") == "vi"
+    assert page.locator("article h1").first.inner_text() != english_title     # the title is translated
+    page.locator("p.edition-links a[hreflang=en]").click()
+    page.wait_for_load_state("networkidle")
+    assert page.url == f"{site}/{page_name}.html"
+    assert page.locator("article h1").first.inner_text() == english_title
+    page.close()
+    assert problems == []
 
 
 def test_mathjax_is_served_locally(site):
@@ -188,8 +214,9 @@ def test_mathjax_is_served_locally(site):
     assert "cdn.jsdelivr" not in page_html and (HTML / "_static" / "mathjax" / "tex-chtml.js").exists()
 
 
-def test_a_solution_dropdown_opens_on_click(browser, site):
-    page, problems = open_page(browser, site, "chapters/01-closed-loop-systems")
+@pytest.mark.parametrize("edition", EDITIONS)
+def test_a_solution_dropdown_opens_on_click(browser, site, edition):
+    page, problems = open_page(browser, site, edition + "chapters/01-closed-loop-systems")
     solution = page.locator("div.solution.dropdown").first
     body = solution.locator("section#solution-content").first
     assert "toggle-hidden" in solution.get_attribute("class")

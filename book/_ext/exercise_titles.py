@@ -10,9 +10,75 @@ sphinx-exercise shows such a title in parentheses; this post-transform, run afte
 import re
 
 from docutils import nodes
+from sphinx.transforms import SphinxTransform
 from sphinx.transforms.post_transforms import SphinxPostTransform
 
 NUMBER = re.compile(r"^(\d+(?:\.\d+)+):\s*")
+
+
+def translatable(directive):
+    """``directive`` (sphinx-exercise's exercise directives) with its title offered for translation.
+
+    sphinx-exercise builds an exercise's title (its "subtitle") with no source text or location, so
+    Sphinx's gettext passes it over and a translated edition would show it in English. The subclass
+    gives the title node the directive's argument as its source text, and its file and line.
+    """
+    from sphinx_exercise.nodes import exercise_subtitle
+
+    class Translatable(directive):
+        def run(self):
+            result = super().run()
+            for node in result:
+                for title in node.findall(exercise_subtitle):
+                    title.rawsource = self.arguments[0]
+                    title.source, title.line = self.get_source_info()
+            return result
+
+    Translatable.__name__ = f"Translatable{directive.__name__}"
+    return Translatable
+
+
+class RegisterTranslatedExercises(SphinxTransform):
+    """After Sphinx's Locale transform (priority 20): the registry holds each exercise as translated.
+
+    sphinx-exercise keeps a copy of each exercise, made while the page is parsed, and builds its
+    solutions' titles ("Solution to Exercise 6.3 (title)") from that copy: in a translated edition
+    they would show the English title. The copy is renewed once the page is translated.
+    """
+
+    default_priority = 21
+
+    def apply(self, **kwargs):
+        from sphinx_exercise.nodes import exercise_enumerable_node, exercise_node
+
+        registry = getattr(self.env, "sphinx_exercise_registry", {})
+        for node in self.document.findall(lambda n: isinstance(n, (exercise_node, exercise_enumerable_node))):
+            entry = registry.get(node.get("label"))
+            if entry is not None and entry.get("docname") == self.env.docname:
+                entry["node"] = node.deepcopy()
+
+
+class OfferExerciseTitles(SphinxPostTransform):
+    """For the gettext builder only: keep each exercise's title as a message.
+
+    Sphinx's gettext reads the messages after the post-transforms, and sphinx-exercise's (priority
+    20) moves the title's words into a new title with no source text. A copy of the source text,
+    made just before, is what gettext reads; the HTML builders never see it. The translation itself
+    is applied to the title when the page is read, before any post-transform.
+    """
+
+    default_priority = 19
+    builders = ("gettext",)
+
+    def run(self, **kwargs):
+        from sphinx_exercise.nodes import exercise_subtitle
+
+        for title in list(self.document.findall(exercise_subtitle)):
+            if title.rawsource and title.source:
+                copy = nodes.paragraph(title.rawsource, title.rawsource)
+                copy.source, copy.line = title.source, title.line
+                copy.uid = getattr(title, "uid", "")        # the gettext catalogue keeps only nodes with one
+                title.parent.parent.append(copy)
 
 
 class NumberExerciseTitles(SphinxPostTransform):
@@ -40,5 +106,12 @@ class NumberExerciseTitles(SphinxPostTransform):
 
 
 def setup(app):
+    from sphinx_exercise.directive import ExerciseDirective, ExerciseStartDirective
+
+    app.setup_extension("sphinx_exercise")
+    app.add_directive("exercise", translatable(ExerciseDirective), override=True)
+    app.add_directive("exercise-start", translatable(ExerciseStartDirective), override=True)
+    app.add_transform(RegisterTranslatedExercises)
+    app.add_post_transform(OfferExerciseTitles)
     app.add_post_transform(NumberExerciseTitles)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

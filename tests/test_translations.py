@@ -1,0 +1,171 @@
+"""The Vietnamese edition's catalogues (``locales/vi/LC_MESSAGES``): complete, in step, true to the glossary.
+
+The checks themselves are in ``book/_ext/translations.py`` (translators run them on their own files);
+here they run over every catalogue, and each failure lists what is wrong, file by file. The built
+Vietnamese pages are read by tests/test_site.py (in Chromium) and at the end of this file.
+"""
+
+import importlib.util
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+LOCALE = ROOT / "locales" / "vi" / "LC_MESSAGES"
+UPDATE = "make translations"
+
+
+def _load(name):
+    spec = importlib.util.spec_from_file_location(name, ROOT / "book" / "_ext" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module                      # dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+translations = _load("translations")
+
+
+def toc_pages():
+    import yaml
+
+    toc = yaml.safe_load((ROOT / "_toc.yml").read_text())
+    return [toc["root"]] + [chapter["file"] for part in toc["parts"] for chapter in part["chapters"]]
+
+
+@pytest.fixture(scope="module")
+def all_problems():
+    terms = translations.glossary_terms()
+    return [problem for path in translations.catalogues(LOCALE).values()
+            for problem in translations.problems(path, terms)]
+
+
+def by_file(problems):
+    listing = {}
+    for problem in problems:
+        listing.setdefault(Path(problem.path).relative_to(LOCALE).as_posix(), []).append(
+            f"line {problem.line}: {problem.msgid[:80]!r}")
+    return listing
+
+
+def test_every_page_has_a_catalogue():
+    assert set(translations.catalogues(LOCALE)) == set(toc_pages()), f"run `{UPDATE}`"
+
+
+def test_every_message_is_translated(all_problems):
+    missing = [p for p in all_problems if p.reason == "not translated" or p.reason.startswith("fuzzy")]
+    assert by_file(missing) == {}, "untranslated or fuzzy messages, by file"
+
+
+def test_translations_keep_the_markup(all_problems):
+    changed = [str(p) for p in all_problems if p.reason.startswith("markup changed")]
+    assert changed == []
+
+
+def test_each_glossary_term_has_one_vietnamese_form(all_problems):
+    """Wherever the English names a glossary term, the Vietnamese uses the glossary's form of it."""
+    astray = [str(p) for p in all_problems if p.reason.startswith("the glossary's")]
+    assert astray == []
+
+
+def test_the_glossary_lists_the_papers_terms():
+    """The terms the paper itself uses for the book's key ideas are glossary entries (issue 13's list)."""
+    terms = {translations.normal(term.vietnamese) for term in translations.glossary_terms()}
+    paper = ["phương trình Lagrange dạng nhân tử", "phương trình vi phân - đại số", "ổn định hóa Baumgarte",
+             "định lý trực giao", "tọa độ suy rộng dư", "cơ cấu tay quay – con trượt", "điều kiện đầu",
+             "chuyển động quay toàn vòng", "khâu dẫn", "con trượt", "thanh truyền"]
+    assert [term for term in paper if translations.normal(term) not in terms] == []
+
+
+# --- the checker itself can fail --------------------------------------------------------------
+
+def test_the_markup_check_sees_a_changed_target():
+    source = "See {ref}`the first case <case-1>`, [(32)](eq-32), `simulate` and $\\varphi_0$ {cite}`khang2018`."
+    kept = "Xem {ref}`trường hợp đầu <case-1>`, [(32)](eq-32), `simulate` và $\\varphi_0$ {cite}`khang2018`."
+    assert translations.markup(source) == translations.markup(kept)
+    for broken in (kept.replace("<case-1>", "<case-2>"), kept.replace("`simulate`", "simulate"),
+                   kept.replace("(eq-32)", "(eq-23)"), kept.replace("$\\varphi_0$", "$\\varphi$"),
+                   kept.replace("khang2018", "khang")):
+        assert translations.markup(source) != translations.markup(broken), broken
+
+
+def test_the_glossary_check_sees_a_synonym(tmp_path):
+    catalogue = tmp_path / "page.po"
+    catalogue.write_text('msgid ""\nmsgstr ""\n"Content-Type: text/plain; charset=UTF-8\\n"\n\n'
+                         'msgid "The initial conditions of case 1."\nmsgstr "Các điều kiện ban đầu của trường hợp 1."\n\n'
+                         'msgid "The crank turns."\nmsgstr "Tay quay quay."\n\n'
+                         'msgid "A link to the licence."\nmsgstr "Một đường dẫn tới giấy phép."\n\n'
+                         'msgid "Every other link turns."\nmsgstr "Mọi thanh khác đều quay."\n\n'
+                         'msgid "A new page."\nmsgstr ""\n', encoding="utf-8")
+    found = translations.problems(catalogue)
+    assert [(p.msgid, p.reason.split(":")[0]) for p in found] == [
+        ("The initial conditions of case 1.", "the glossary's 'điều kiện đầu' for 'initial conditions' is not used"),
+        ("Every other link turns.", "the glossary's 'khâu' for 'link' is not used"),
+        ("A new page.", "not translated")]
+
+
+def test_out_of_step_names_the_page_that_changed(tmp_path):
+    templates, locale = tmp_path / "pot", tmp_path / "po"
+    for folder, text in ((templates, "Old words."), (locale, "Old words.")):
+        (folder / "chapters").mkdir(parents=True)
+        (folder / "chapters" / ("a.pot" if folder == templates else "a.po")).write_text(
+            f'msgid "{text}"\nmsgstr ""\n', encoding="utf-8")
+    assert translations.out_of_step(templates, locale) == {}
+    (templates / "chapters" / "a.pot").write_text('msgid "New words."\nmsgstr ""\n', encoding="utf-8")
+    (templates / "chapters" / "b.pot").write_text('msgid "A page."\nmsgstr ""\n', encoding="utf-8")
+    assert translations.out_of_step(templates, locale) == {
+        "chapters/a": "1 new message(s), 1 no longer in the source", "chapters/b": "no catalogue"}
+
+
+# --- against the sources and the built edition -------------------------------------------------
+
+def test_catalogues_are_in_step_with_the_sources(built_site):
+    """A page edited without updating the catalogues fails here, naming the command that updates them."""
+    import yaml
+
+    editions = _load("editions")
+    folder = ROOT / "_build" / "gettext-test"            # not make translations' folder: never in its way
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "_config.yml").write_text(yaml.safe_dump(editions.edition_config("en"), allow_unicode=True))
+    jupyter_book = Path(sys.executable).with_name("jupyter-book")
+    run = subprocess.run([str(jupyter_book), "build", ".", "-q", "--builder", "custom", "--custom-builder", "gettext",
+                          "--config", str(folder / "_config.yml"), "--path-output", str(folder)],
+                         cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+    differ = translations.out_of_step(folder / "_build" / "gettext", LOCALE)
+    assert differ == {}, (f"the Vietnamese catalogues are out of step with the sources: run `{UPDATE}`, "
+                          "then translate what test_every_message_is_translated lists")
+
+
+def test_the_vietnamese_pages_are_vietnamese(built_site):
+    """Every built Vietnamese page says it is Vietnamese, and its prose is: outside code, outputs, math,
+    bold glossary terms and citations, no paragraph, heading or title reads as English (two or more
+    English function words, such as "the", "of", "which", making up a tenth of its words). The
+    words are ones no Vietnamese syllable spells ("in", "to", "an" are Vietnamese words too)."""
+    from bs4 import BeautifulSoup
+
+    english = {"the", "of", "and", "is", "that", "with", "for", "are", "this", "its", "from", "which", "or",
+               "not", "each", "what", "when", "where", "was", "were", "has", "have", "been"}
+    import yaml
+
+    captions = {part["caption"] for part in yaml.safe_load((ROOT / "_toc.yml").read_text())["parts"]}
+    pages = [page for page in toc_pages() if page != "book/bibliography"]
+    found = {}
+    for page in pages:
+        soup = BeautifulSoup((built_site / "vi" / f"{page}.html").read_text(encoding="utf-8"), "html.parser")
+        assert soup.html.get("lang") == "vi", page
+        shown = {caption.get_text(" ").strip() for caption in soup.select(".caption-text")}
+        assert shown and not shown & captions, f"{page}: the table of contents' captions are English"
+        article = soup.select_one("article")
+        for skip in article.select("div.cell_output, div.highlight, pre, code, .math, span.math, div.math, "
+                                   "a.reference.internal[href*=bibliography], .edition-links, strong, dt"):
+            skip.decompose()
+        for block in article.select("p, li, h1, h2, h3, caption, figcaption, dd"):
+            words = re.findall(r"[^\W\d_]+", block.get_text(" "))
+            hits = sum(word in english for word in words)
+            if hits >= 2 and hits >= 0.1 * len(words):
+                found.setdefault(page, []).append(block.get_text(" ")[:100])
+    assert found == {}, "paragraphs of the Vietnamese edition that read as English"
