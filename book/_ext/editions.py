@@ -13,7 +13,7 @@ which is ``_config.yml`` with the edition's language and title, and the executio
 build (an absolute path, so that no notebook is executed a second time). ``config en`` is the English
 configuration with those absolute paths, for the gettext build of ``make translations``.
 
-To add a language: ``sphinx-intl update -p _build/gettext -l XX -d locales`` (after ``make translations``
+To add a language: ``sphinx-intl update -p _build/gettext-build/_build/gettext -l XX -d locales`` (after ``make translations``
 has written the templates), translate the new ``.po`` files, add ``XX`` to :data:`EDITIONS` below and to
 ``LANGUAGES`` in the Makefile.
 """
