@@ -56,13 +56,15 @@ TEXTS = {
                        "click it to explore.",
     },
     "vi": {
-        "animation": "Hình động, ở đây chỉ in khung hình đầu tiên: bản web của chương {chapter} phát toàn bộ.",
-        "interactive": "Hình tương tác: trong bản web của chương {chapter}, di chuột và nhấp vào hình để khám phá.",
+        "animation": "Hình động, ở đây chỉ in khung hình đầu tiên: bản web của chương {chapter} "
+                     "phát toàn bộ.",
+        "interactive": "Hình tương tác: trong bản web của chương {chapter}, di chuột và nhấp vào hình "
+                       "để khám phá.",
     },
 }
 #: Elements wider than the text column in the printed layout (MathJax's invisible copy for screen
 #: readers aside), with the page of the site they are on; print.css should leave none.
-WIDE = """() => {
+WIDE = r"""() => {
     const column = document.querySelector('article').getBoundingClientRect();
     const wide = (e) => { const r = e.getBoundingClientRect(); return r.width > 0 && r.right > column.right + 2; };
     const starts = [...document.querySelectorAll('span[id^="document-"]')];
@@ -77,14 +79,16 @@ WIDE = """() => {
 }"""
 #: Marks the blocks to keep on one page (class pdf-keep, print.css): a cell, or else its input and its
 #: output, a table, an admonition, no taller than the limit given in CSS pixels.
-KEEP = """(limit) => {
+KEEP = r"""(limit) => {
     const short = (e) => e.getBoundingClientRect().height <= limit;
     const keep = [];
     document.querySelectorAll('article div.cell').forEach(cell => {
         if (short(cell)) keep.push(cell);
-        else keep.push(...[...cell.querySelectorAll(':scope > div.cell_input, :scope > div.cell_output')].filter(short));
+        else keep.push(...[...cell.querySelectorAll(':scope > div.cell_input, :scope > div.cell_output')]
+            .filter(short));
     });
-    keep.push(...[...document.querySelectorAll('article table, article div.admonition, article div.proof')].filter(short));
+    keep.push(...[...document.querySelectorAll('article table, article div.admonition, article div.proof')]
+        .filter(short));
     keep.forEach(e => e.classList.add('pdf-keep'));
     return keep.length;
 }"""
@@ -92,7 +96,7 @@ KEEP = """(limit) => {
 KEEP_PX = 0.4 * (297 - 36) / 25.4 * 96
 #: The text of every heading that is printed (so in the bookmarks), in order: the headings' links
 #: left out, and each formula written out from MathJax's MathML ("φ̇0 = 1" for \dot\varphi_0 = 1).
-HEADINGS = """() => {
+HEADINGS = r"""() => {
     const mathText = (node) => {
         if (node.nodeType === Node.TEXT_NODE) return node.textContent;
         if (node.nodeType !== Node.ELEMENT_NODE) return '';
@@ -100,7 +104,8 @@ HEADINGS = """() => {
         if (tag === 'mo') return /^[=<>≤≥≈±+−×]$/.test(text) ? ` ${text} ` : (text === ',' ? ', ' : text);
         const parts = [...node.childNodes].map(mathText);
         if (tag === 'mover' && node.children.length === 2) {
-            const accent = {'˙': '\u0307', '¨': '\u0308', '.': '\u0307', '^': '\u0302', '~': '\u0303'}[node.children[1].textContent.trim()];
+            const accents = {'˙': '\u0307', '¨': '\u0308', '.': '\u0307', '^': '\u0302', '~': '\u0303'};
+            const accent = accents[node.children[1].textContent.trim()];
             if (accent) return parts[0] + accent;
         }
         return parts.join('');
@@ -170,7 +175,7 @@ def open_book(browser, url, timeout_ms=300_000):
         On a console error, an uncaught page error or a failed request (what the site test
         calls a fault), or when the math or the figures are not done within ``timeout_ms``.
     """
-    page = browser.new_page(viewport={"width": COLUMN_PX, "height": 1000})
+    page = browser.new_page(viewport={"width": COLUMN_PX, "height": 1000}, device_scale_factor=2)
     page.set_default_timeout(timeout_ms)
     problems = []
     page.on("pageerror", lambda error: problems.append(f"page error: {error}"))
@@ -191,7 +196,8 @@ def open_book(browser, url, timeout_ms=300_000):
                 .map(i => (i.getAttribute('src') || '').slice(0, 80)),
     })""")
     if faults["typeset"] != faults["math"] or faults["errors"]:
-        problems.append(f"math: {faults['typeset']} of {faults['math']} formulas typeset, {faults['errors']} in error")
+        problems.append(f"math: {faults['typeset']} of {faults['math']} formulas typeset, "
+                        f"{faults['errors']} in error")
     problems += [f"image not loaded: {src}" for src in faults["images"]]
     if problems:
         raise PrintError("the single page did not load cleanly:\n  " + "\n  ".join(problems))
@@ -277,8 +283,9 @@ def retitle_bookmarks(pdf, titles):
         If the file has not one bookmark per title.
     """
     data = Path(pdf).read_bytes()
-    items = {int(m.group(1)): m.group(2) for m in
-             re.finditer(rb"(\d+) 0 obj\s*<<(/Title\s*(?:\((?:\\.|[^\\)])*\)|<[0-9A-Fa-f]*>).*?)>>\s*endobj", data, re.S)}
+    title = rb"/Title\s*(?:\((?:\\.|[^\\)])*\)|<[0-9A-Fa-f]*>)"         # a literal or a hex string
+    items = {int(m.group(1)): m.group(2)
+             for m in re.finditer(rb"(\d+) 0 obj\s*<<(" + title + rb".*?)>>\s*endobj", data, re.S)}
     root = re.search(rb"<</Type /Outlines\s*/First (\d+) 0 R", data)
     order, stack = [], [int(root.group(1))] if root else []
     while stack:                                  # the bookmarks in order: each one, then its children
@@ -293,10 +300,9 @@ def retitle_bookmarks(pdf, titles):
     trailer = re.findall(rb"trailer\s*<<(.*?)>>\s*startxref\s*(\d+)", data, re.S)[-1]
     fields = dict(re.findall(rb"/(Size|Root|Info) (\d+(?: 0 R)?)", trailer[0]))
     update, offsets = bytearray(b"\n"), {}
-    for number, title in zip(order, titles):
+    for number, text in zip(order, titles):
         offsets[number] = len(data) + len(update)
-        body = re.sub(rb"^/Title\s*(?:\((?:\\.|[^\\)])*\)|<[0-9A-Fa-f]*>)", lambda m: b"/Title " + _pdf_text(title),
-                      items[number], count=1)
+        body = re.sub(b"^" + title, lambda m: b"/Title " + _pdf_text(text), items[number], count=1)
         update += b"%d 0 obj\n<<%s>>\nendobj\n" % (number, body)
     xref = len(data) + len(update)
     update += b"xref\n" + b"".join(b"%d 1\n%010d 00000 n \n" % (n, offsets[n]) for n in sorted(offsets))
