@@ -1,6 +1,7 @@
 # Two set-up commands for a fresh machine (see README.md):
 #   make book   builds the book into _build/html
 #   make test   runs the test suite (library, chapters, and the built site in headless Chromium)
+# and make pdf prints the book to _build/pdf/closedloop.pdf.
 # Each creates .venv from the pinned requirements/lock.txt when it is missing or out of date.
 
 PYTHON ?= python3
@@ -12,7 +13,7 @@ STAMP  := $(VENV)/.installed
 # Every .py below src/ and exercises/checking, in subpackages too (find, not a one-level wildcard).
 SOURCE_HASH = $(shell cat $$(find src exercises/checking -name '*.py' -not -path '*/__pycache__/*' | LC_ALL=C sort) pyproject.toml requirements/lock.txt _config.yml book/data/benchmark.json book/data/long_runs.json | sha256sum | cut -c1-16)
 
-.PHONY: book test browser student benchmark benchmark-data long-runs-data timings speed clean
+.PHONY: book pdf pdf-tools test browser student benchmark benchmark-data long-runs-data timings speed clean
 
 $(STAMP): requirements/lock.txt pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -20,14 +21,35 @@ $(STAMP): requirements/lock.txt pyproject.toml
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
 	touch $@
 
+# book and pdf share the execution cache and the doctrees; either clears them, and the pages built
+# from them, when the hash above changed since the last build.
+define FRESH_CACHE
+@mkdir -p _build
+@if [ "$$(cat _build/.source-hash 2>/dev/null)" != "$(SOURCE_HASH)" ]; then \
+  rm -rf _build/.jupyter_cache _build/.doctrees _build/html _build/singlehtml; \
+  echo "library, lock or config changed since the last build: every chapter is executed afresh"; \
+fi
+endef
+
 book: $(STAMP)
-	@mkdir -p _build
-	@if [ "$$(cat _build/.source-hash 2>/dev/null)" != "$(SOURCE_HASH)" ]; then \
-	  rm -rf _build/.jupyter_cache _build/.doctrees _build/html; \
-	  echo "library, lock or config changed since the last build: every chapter is executed afresh"; \
-	fi
+	$(FRESH_CACHE)
 	$(BIN)/jupyter-book build . -n -W --keep-going
 	@echo "$(SOURCE_HASH)" > _build/.source-hash
+
+# The book as one PDF: Jupyter Book's single-page build (the same pages and numbering as the site,
+# from the same execution cache) printed by Debian's chromium, solutions left out
+# (book/print/print_pdf.py; poppler-utils' pdfinfo finds the contents' page numbers).
+pdf: $(STAMP) pdf-tools
+	$(FRESH_CACHE)
+	$(BIN)/jupyter-book build . --builder singlehtml -n -W --keep-going
+	@echo "$(SOURCE_HASH)" > _build/.source-hash
+	$(BIN)/python book/print/print_pdf.py _build/singlehtml _build/pdf/closedloop.pdf
+
+# make pdf needs chromium and poppler-utils; install them when missing (root on CI).
+pdf-tools:
+	@command -v chromium >/dev/null 2>&1 && command -v pdfinfo >/dev/null 2>&1 \
+	  || { apt-get update -qq && apt-get install -y -qq chromium poppler-utils; } >/dev/null 2>&1 \
+	  || echo "note: chromium or poppler-utils could not be installed here; make pdf needs both"
 
 # The site test drives Debian's chromium; install it when missing (root on CI). If that is not
 # possible, the test says so and is skipped.
@@ -35,7 +57,7 @@ browser:
 	@command -v chromium >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq chromium; } >/dev/null 2>&1 \
 	  || echo "note: chromium could not be installed here; the site test will be skipped and say so"
 
-test: $(STAMP) browser
+test: $(STAMP) browser pdf-tools
 	$(BIN)/python -m pytest
 
 # The student version of every exercise notebook (solutions removed), for handing out.
