@@ -1,6 +1,7 @@
 # Two set-up commands for a fresh machine (see README.md):
 #   make book   builds the book into _build/html, and its Vietnamese edition into _build/html/vi
 #   make test   runs the test suite (library, chapters, and the built site in headless Chromium)
+# and make pdf prints the book to _build/pdf/closedloop.pdf (and closedloop.vi.pdf).
 # Each creates .venv from the pinned requirements/lock.txt when it is missing or out of date.
 
 PYTHON ?= python3
@@ -15,7 +16,7 @@ SOURCE_HASH = $(shell cat $$(find src exercises/checking -name '*.py' -not -path
 # The translated editions (book/_ext/editions.py), each from locales/<language>/LC_MESSAGES.
 LANGUAGES := vi
 
-.PHONY: book translations test browser student grade benchmark benchmark-data long-runs-data timings speed clean
+.PHONY: book translations pdf pdf-tools test browser student grade benchmark benchmark-data long-runs-data timings speed clean
 
 $(STAMP): requirements/lock.txt pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -23,12 +24,18 @@ $(STAMP): requirements/lock.txt pyproject.toml
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
 	touch $@
 
+# book and pdf share the execution cache and the doctrees; either clears them, and the pages built
+# from them, when the hash above changed since the last build.
+define FRESH_CACHE
+@mkdir -p _build
+@if [ "$$(cat _build/.source-hash 2>/dev/null)" != "$(SOURCE_HASH)" ]; then \
+  rm -rf _build/.jupyter_cache _build/.doctrees _build/html _build/singlehtml $(addprefix _build/,$(LANGUAGES)); \
+  echo "library, lock or config changed since the last build: every chapter is executed afresh"; \
+fi
+endef
+
 book: $(STAMP)
-	@mkdir -p _build
-	@if [ "$$(cat _build/.source-hash 2>/dev/null)" != "$(SOURCE_HASH)" ]; then \
-	  rm -rf _build/.jupyter_cache _build/.doctrees _build/html $(addprefix _build/,$(LANGUAGES)); \
-	  echo "library, lock or config changed since the last build: every chapter is executed afresh"; \
-	fi
+	$(FRESH_CACHE)
 	$(BIN)/jupyter-book build . -n -W --keep-going
 	@# each translation: the same sources and execution cache (nothing runs twice), its own catalogue
 	@for language in $(LANGUAGES); do \
@@ -50,13 +57,37 @@ translations: $(STAMP)
 	  --config _build/gettext-build/_config.yml --path-output _build/gettext-build
 	$(BIN)/sphinx-intl update -p _build/gettext-build/_build/gettext -d locales $(foreach language,$(LANGUAGES),-l $(language))
 
+# The book as one PDF: Jupyter Book's single-page build (the same pages and numbering as the site,
+# from the same execution cache) printed by Debian's chromium, solutions left out
+# (book/print/print_pdf.py; poppler-utils' pdfinfo finds the contents' page numbers).
+pdf: $(STAMP) pdf-tools
+	$(FRESH_CACHE)
+	$(BIN)/jupyter-book build . --builder singlehtml -n -W --keep-going
+	@echo "$(SOURCE_HASH)" > _build/.source-hash
+	$(BIN)/python book/print/print_pdf.py _build/singlehtml _build/pdf/closedloop.pdf
+	@# each translation, from its own single-page build: _build/pdf/closedloop.<language>.pdf
+	@for language in $(LANGUAGES); do \
+	  mkdir -p _build/$$language && \
+	  $(BIN)/python book/_ext/editions.py config $$language > _build/$$language/_config.yml && \
+	  $(BIN)/jupyter-book build . --builder singlehtml -n -W --keep-going --config _build/$$language/_config.yml \
+	    --path-output _build/$$language && \
+	  $(BIN)/python book/print/print_pdf.py _build/$$language/_build/singlehtml _build/pdf/closedloop.$$language.pdf \
+	  || exit 1; \
+	done
+
+# make pdf needs chromium and poppler-utils; install them when missing (root on CI).
+pdf-tools:
+	@command -v chromium >/dev/null 2>&1 && command -v pdfinfo >/dev/null 2>&1 \
+	  || { apt-get update -qq && apt-get install -y -qq chromium poppler-utils; } >/dev/null 2>&1 \
+	  || echo "note: chromium or poppler-utils could not be installed here; make pdf needs both"
+
 # The site test drives Debian's chromium; install it when missing (root on CI). If that is not
 # possible, the test says so and is skipped.
 browser:
 	@command -v chromium >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq chromium; } >/dev/null 2>&1 \
 	  || echo "note: chromium could not be installed here; the site test will be skipped and say so"
 
-test: $(STAMP) browser
+test: $(STAMP) browser pdf-tools
 	$(BIN)/python -m pytest
 
 # The student version of every exercise notebook (solutions removed), for handing out.

@@ -125,18 +125,64 @@ def quick_benchmark(tmp_path_factory):
 # chapters, the exercise pages, their downloads and the site reads that one build (nothing executes a
 # chapter a second time). The build starts in the background as soon as the tests are collected, so it
 # runs on one core while the library's tests run on the other; the tests that read it are moved to the
-# end of the session and wait for it there. CLOSEDLOOP_SITE_BUILT=1 reads the _build/html already there.
+# end of the session and wait for it there. The PDF (`make pdf`, which reuses that execution) is made
+# after the book in the same background job, while the tests of the site run; the tests that read it
+# (`built_pdf`) come last. CLOSEDLOOP_SITE_BUILT=1 reads the _build/html and _build/pdf already there.
 import os                                  # noqa: E402
 import signal                              # noqa: E402
 import subprocess                          # noqa: E402
+import threading                           # noqa: E402
 from pathlib import Path                   # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BUILD_LOG = ROOT / "_build" / "test-build.log"
+PDF_LOG = ROOT / "_build" / "test-pdf.log"
+#: make's target for each fixture that reads a build, in the order they are built, and its log.
+BUILDS = {"built_site": ("book", BUILD_LOG), "built_pdf": ("pdf", PDF_LOG)}
+
+
+class BackgroundBuild:
+    """``make -s TARGET`` for each target in turn, in a background thread; each one can be waited for.
+
+    A target runs only if the one before succeeded; one that does not run reports exit code None.
+    """
+
+    def __init__(self, targets):
+        self.targets = targets                       # [(target, log path)]
+        self.codes, self.done = {}, {target: threading.Event() for target, _ in targets}
+        self.process, self.stopped = None, False
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self):
+        failed = False
+        for target, log_path in self.targets:
+            if not (failed or self.stopped):
+                with open(log_path, "w") as log:
+                    self.process = subprocess.Popen(["make", "-s", target], cwd=ROOT, stdout=log,
+                                                    stderr=subprocess.STDOUT, start_new_session=True)
+                    self.codes[target] = self.process.wait()
+                failed = self.codes[target] != 0
+            self.done[target].set()
+
+    def wait(self, target, timeout):
+        """The exit code of ``make -s target`` (None if it did not run), once it has ended."""
+        assert self.done[target].wait(timeout), f"make {target} still running after {timeout} s"
+        return self.codes.get(target)
+
+    def stop(self):
+        """Stop the build under way, if any, and every target not started yet."""
+        self.stopped = True
+        if self.process is not None and self.process.poll() is None:
+            os.killpg(self.process.pid, signal.SIGTERM)
+            self.process.wait(timeout=30)
 
 
 def pytest_collection_modifyitems(session, config, items):
-    reading = [item for item in items if "built_site" in getattr(item, "fixturenames", ())]
+    groups = {name: [item for item in items if name in getattr(item, "fixturenames", ())
+                     and not any(later in getattr(item, "fixturenames", ()) for later in list(BUILDS)[i + 1:])]
+              for i, name in enumerate(BUILDS)}
+    reading = [item for name in BUILDS for item in groups[name]]
     if not reading:
         return
     waiting = {id(item) for item in reading}
@@ -144,31 +190,50 @@ def pytest_collection_modifyitems(session, config, items):
     if os.environ.get("CLOSEDLOOP_SITE_BUILT") == "1" or config.option.collectonly:
         return
     BUILD_LOG.parent.mkdir(exist_ok=True)
-    log = open(BUILD_LOG, "w")             # noqa: SIM115  (closed in pytest_unconfigure)
-    config._closedloop_build = (subprocess.Popen(["make", "-s", "book"], cwd=ROOT, stdout=log,
-                                                 stderr=subprocess.STDOUT, start_new_session=True), log)
+    names = list(BUILDS)
+    last = max(names.index(name) for name in names if groups[name])
+    # the PDF's tests read the site too: every target up to the last one wanted is built
+    config._closedloop_build = BackgroundBuild([BUILDS[name] for name in names[:last + 1]])
 
 
 def pytest_unconfigure(config):
     build = getattr(config, "_closedloop_build", None)
+    if build is not None:                  # the session ended early (Ctrl-C, -x): stop the build too
+        build.stop()
+
+
+def _wait_for(request, target, log_path):
+    build = getattr(request.config, "_closedloop_build", None)
     if build is not None:
-        process, log = build
-        if process.poll() is None:         # the session ended early (Ctrl-C, -x): stop the build too
-            os.killpg(process.pid, signal.SIGTERM)
-            process.wait(timeout=30)
-        log.close()
+        code = build.wait(target, timeout=1800)
+        tail = log_path.read_text()[-4000:] if log_path.exists() else ""
+        assert code is not None, f"make {target} did not run: the build before it failed (see {BUILD_LOG})"
+        assert code == 0, f"make {target} failed (exit {code}); the end of {log_path}:\n{tail}"
 
 
 @pytest.fixture(scope="session")
 def built_site(request):
     """``_build/html``, built once for the session by ``make -s book`` (incremental)."""
-    build = getattr(request.config, "_closedloop_build", None)
-    if build is not None:
-        process, log = build
-        code = process.wait(timeout=1800)
-        log.flush()
-        tail = BUILD_LOG.read_text()[-4000:]
-        assert code == 0, f"make book failed (exit {code}); the end of {BUILD_LOG}:\n{tail}"
+    _wait_for(request, "book", BUILD_LOG)
     html = ROOT / "_build" / "html"
     assert (html / "index.html").exists(), f"no built site in {html}"
     return html
+
+
+@pytest.fixture(scope="session")
+def built_pdf(request):
+    """``_build/pdf/closedloop.pdf``, made once for the session by ``make -s pdf`` after the book.
+
+    Skipped, and says so, where the PDF cannot be made or read: without Debian's chromium and poppler-utils.
+    """
+    import shutil
+
+    missing = [tool for tool in ("chromium", "pdfinfo", "pdftotext", "pdfimages", "pdftohtml", "pdftoppm")
+               if shutil.which(tool) is None]
+    if missing:
+        pytest.skip(f"the PDF was NOT made or checked: {', '.join(missing)} not installed (Debian's chromium "
+                    "and poppler-utils; make test tries to install them)")
+    _wait_for(request, "pdf", PDF_LOG)
+    pdf = ROOT / "_build" / "pdf" / "closedloop.pdf"
+    assert pdf.exists(), f"no PDF at {pdf}"
+    return pdf
