@@ -410,3 +410,28 @@ def test_pages_to_look_at(pdf, pages, starts):
         grey = Image.open(f"{target}.png").convert("L")
         low, high = grey.getextrema()
         assert low < 100 and high > 200, f"page {page} ({name}) renders blank"
+
+
+def test_the_vietnamese_edition_is_printed_too(pdf, pages):
+    """``make pdf`` prints the Vietnamese edition (``closedloop.vi.pdf``) from its own single-page build:
+    the same book in about as many pages, every page's title in its translation (the catalogue's),
+    its notes in Vietnamese, and no TeX left."""
+    from babel.messages.pofile import read_po
+
+    vi = pdf.with_name("closedloop.vi.pdf")
+    assert vi.exists(), f"no {vi}"
+    vi_pages = run("pdftotext", str(vi), "-").split("\f")[:-1]
+    assert 0.85 * len(pages) <= len(vi_pages) <= 1.3 * len(pages), (len(pages), len(vi_pages))
+    text = typographic(" ".join(run("pdftotext", "-raw", str(vi), "-").split()))
+    missing = []
+    for docname, _ in toc_documents():
+        raw = re.search(r"^# (.+)$", (ROOT / f"{docname}.md").read_text(encoding="utf-8"), re.M).group(1).strip()
+        with open(ROOT / "locales" / "vi" / "LC_MESSAGES" / f"{docname}.po", "rb") as handle:
+            title = read_po(handle).get(raw).string
+        if typographic(title.replace("'", "\u2019")) not in text:
+            missing.append(title)
+    assert missing == [], "titles of the Vietnamese edition not in its PDF"
+    for kind, note in TEXTS["vi"].items():
+        if NOTES[kind] in " ".join(pages):                  # the English PDF has this note, so must this one
+            assert typographic(note.split("{chapter}")[0]) in text, kind
+    assert "$" not in text and "\\frac" not in text
