@@ -163,7 +163,8 @@ def test_the_vietnamese_pages_are_vietnamese(built_site):
         for skip in article.select("div.cell_output, div.highlight, pre, code, .math, span.math, div.math, "
                                    "a.reference.internal[href*=bibliography], .edition-links, strong, dt"):
             skip.decompose()
-        for block in article.select("p, li, h1, h2, h3, caption, figcaption, dd"):
+        footer = soup.select_one("footer")
+        for block in article.select("p, li, h1, h2, h3, caption, figcaption, dd") + (footer.select("p") if footer else []):
             words = re.findall(r"[^\W\d_]+", block.get_text(" "))
             hits = sum(word in english for word in words)
             if hits >= 2 and hits >= 0.1 * len(words):

@@ -32,7 +32,12 @@ EDITIONS = {
            "link": "Read this page in English", "name": "English"},
     "vi": {"title": "Động lực học hệ nhiều vật có cấu trúc mạch vòng: "
                     "cơ cấu tay quay - con trượt và điều kiện đầu",
-           "link": "Đọc trang này bằng tiếng Việt", "name": "Tiếng Việt"},
+           "link": "Đọc trang này bằng tiếng Việt", "name": "Tiếng Việt",
+           # the site's footer (html.extra_footer of _config.yml), which is configuration, not a page
+           "footer": '<p>Mã nguồn theo <a href="https://opensource.org/license/mit">giấy phép MIT</a>; '
+                     'văn bản và hình vẽ theo <a href="https://creativecommons.org/licenses/by/4.0/">giấy phép '
+                     'Creative Commons Ghi công 4.0 Quốc tế (CC BY 4.0)</a>. Xem các tệp <code>LICENSE</code> và '
+                     '<code>LICENSE-TEXT</code> của kho mã, và trang Giấy phép ở phần cuối sách.</p>'},
 }
 SOURCE_LANGUAGE = "en"
 
@@ -84,6 +89,7 @@ def edition_config(language: str, root: Path = ROOT) -> dict:
                                             for name, folder in config["sphinx"]["local_extensions"].items()}
     if language != SOURCE_LANGUAGE:
         config["title"] = EDITIONS[language]["title"]
+        config["html"]["extra_footer"] = EDITIONS[language]["footer"]
         config["sphinx"]["config"]["language"] = language
     return config
 
