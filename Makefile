@@ -34,15 +34,18 @@ define FRESH_CACHE
 fi
 endef
 
+# One translated edition's build, for book and pdf: $(1) its language (a shell variable in their loops),
+# $(2) more options. Its configuration (book/_ext/editions.py) shares the English build's execution cache.
+EDITION_BUILD = mkdir -p _build/$(1) && \
+  $(BIN)/python book/_ext/editions.py config $(1) > _build/$(1)/_config.yml && \
+  $(BIN)/jupyter-book build . -n -W --keep-going --config _build/$(1)/_config.yml --path-output _build/$(1) $(2)
+
 book: $(STAMP)
 	$(FRESH_CACHE)
 	$(BIN)/jupyter-book build . -n -W --keep-going
 	@# each translation: the same sources and execution cache (nothing runs twice), its own catalogue
 	@for language in $(LANGUAGES); do \
-	  mkdir -p _build/$$language && \
-	  $(BIN)/python book/_ext/editions.py config $$language > _build/$$language/_config.yml && \
-	  $(BIN)/jupyter-book build . -n -W --keep-going --config _build/$$language/_config.yml \
-	    --path-output _build/$$language && \
+	  $(call EDITION_BUILD,$$language) && \
 	  rm -rf _build/html/$$language && cp -r _build/$$language/_build/html _build/html/$$language || exit 1; \
 	done
 	@echo "$(SOURCE_HASH)" > _build/.source-hash
@@ -67,10 +70,7 @@ pdf: $(STAMP) pdf-tools
 	$(BIN)/python book/print/print_pdf.py _build/singlehtml _build/pdf/closedloop.pdf
 	@# each translation, from its own single-page build: _build/pdf/closedloop.<language>.pdf
 	@for language in $(LANGUAGES); do \
-	  mkdir -p _build/$$language && \
-	  $(BIN)/python book/_ext/editions.py config $$language > _build/$$language/_config.yml && \
-	  $(BIN)/jupyter-book build . --builder singlehtml -n -W --keep-going --config _build/$$language/_config.yml \
-	    --path-output _build/$$language && \
+	  $(call EDITION_BUILD,$$language,--builder singlehtml) && \
 	  $(BIN)/python book/print/print_pdf.py _build/$$language/_build/singlehtml _build/pdf/closedloop.$$language.pdf \
 	  || exit 1; \
 	done
