@@ -18,14 +18,17 @@ README's build command, ``make book``, beside the library's tests), serves ``_bu
 Every page is opened in both editions: English (``_build/html``) and Vietnamese (``_build/html/vi``).
 Besides: every generated page is reachable from the table of contents, a solution dropdown opens on
 click, each page's link to the other edition opens the same page there, and every chapter downloads as
-an executed notebook. Screenshots of every page land in
-``_build/screenshots`` to be looked at. If Chromium is not installed, the test is skipped and says
-so. With ``CLOSEDLOOP_SITE_BUILT=1`` the test reads the ``_build/html`` already built instead of
+an executed notebook. A screenshot of every page lands in ``_build/screenshots`` to be looked at:
+its first screen (1200 x 900), or the whole page with ``CLOSEDLOOP_FULL_SCREENSHOTS=1``. A full page
+costs 1-2 s to capture, about as long as the page's checks, and the checks do not read it (they
+measure the rendered page itself), so the default run does not pay for it. If Chromium is not
+installed, the test is skipped and says so. With ``CLOSEDLOOP_SITE_BUILT=1`` the test reads the ``_build/html`` already built instead of
 running ``make book``.
 """
 
 import functools
 import http.server
+import os
 import shutil
 import threading
 from pathlib import Path
@@ -45,6 +48,8 @@ MARKERS = ("BEGIN SOLUTION", "END SOLUTION", "STUDENT:")
 UNLISTED = {"genindex.html", "search.html", "404.html"}
 #: The editions, as folders of _build/html: English at the top, each translation in its own folder.
 EDITIONS = ("", "vi/")
+#: Whole-page screenshots (slow), instead of each page's first screen.
+FULL_SCREENSHOTS = os.environ.get("CLOSEDLOOP_FULL_SCREENSHOTS") == "1"
 
 
 def toc_pages():
@@ -158,7 +163,7 @@ def test_page_is_clean(browser, site, page_name):
     page, problems = open_page(browser, site, page_name)
     shots = ROOT / "_build" / "screenshots"
     shots.mkdir(exist_ok=True)
-    page.screenshot(path=str(shots / (page_name.replace("/", "_") + ".png")), full_page=True)
+    page.screenshot(path=str(shots / (page_name.replace("/", "_") + ".png")), full_page=FULL_SCREENSHOTS)
     page.evaluate(OPEN_EVERYTHING)
     found = page.evaluate(MEASURE)
     page.close()
