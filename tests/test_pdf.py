@@ -33,6 +33,8 @@ from pathlib import Path
 import pytest
 import yaml
 
+from ._toc import toc_documents
+
 ROOT = Path(__file__).resolve().parents[1]
 PAGES_OUT = ROOT / "_build" / "pdf" / "pages"
 #: Text an animation's and an interactive figure's note begin with (print_pdf.TEXTS, English).
@@ -53,12 +55,6 @@ def pages_with_pictures(pdf):
 
 
 # --- what the sources say ------------------------------------------------------------------
-def toc_documents():
-    """[(docname, numbered)] of every page after the root, in the order of ``_toc.yml``."""
-    toc = yaml.safe_load((ROOT / "_toc.yml").read_text())
-    return [(chapter["file"], bool(part.get("numbered"))) for part in toc["parts"] for chapter in part["chapters"]]
-
-
 def source_title(docname):
     """The first heading of a page's source, as the site prints it (straight quotes made curly)."""
     text = (ROOT / f"{docname}.md").read_text(encoding="utf-8")

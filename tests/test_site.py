@@ -35,6 +35,8 @@ from pathlib import Path
 
 import pytest
 
+from ._toc import toc_pages
+
 ROOT = Path(__file__).resolve().parents[1]
 HTML = ROOT / "_build" / "html"
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
@@ -50,16 +52,6 @@ UNLISTED = {"genindex.html", "search.html", "404.html"}
 EDITIONS = ("", "vi/")
 #: Whole-page screenshots (slow), instead of each page's first screen.
 FULL_SCREENSHOTS = os.environ.get("CLOSEDLOOP_FULL_SCREENSHOTS") == "1"
-
-
-def toc_pages():
-    import yaml
-
-    toc = yaml.safe_load((ROOT / "_toc.yml").read_text())
-    pages = [toc["root"]]
-    for part in toc.get("parts", []):
-        pages += [chapter["file"] for chapter in part["chapters"]]
-    return pages
 
 
 @pytest.fixture(scope="module")

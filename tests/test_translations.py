@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+from ._toc import toc_pages, toc_parts
+
 ROOT = Path(__file__).resolve().parents[1]
 LOCALE = ROOT / "locales" / "vi" / "LC_MESSAGES"
 UPDATE = "make translations"
@@ -27,13 +29,6 @@ def _load(name):
 
 
 translations = _load("translations")
-
-
-def toc_pages():
-    import yaml
-
-    toc = yaml.safe_load((ROOT / "_toc.yml").read_text())
-    return [toc["root"]] + [chapter["file"] for part in toc["parts"] for chapter in part["chapters"]]
 
 
 @pytest.fixture(scope="module")
@@ -149,9 +144,7 @@ def test_the_vietnamese_pages_are_vietnamese(built_site):
 
     english = {"the", "of", "and", "is", "that", "with", "for", "are", "this", "its", "from", "which", "or",
                "not", "each", "what", "when", "where", "was", "were", "has", "have", "been"}
-    import yaml
-
-    captions = {part["caption"] for part in yaml.safe_load((ROOT / "_toc.yml").read_text())["parts"]}
+    captions = {part["caption"] for part in toc_parts()}
     pages = [page for page in toc_pages() if page != "book/bibliography"]
     found = {}
     for page in pages:
