@@ -13,6 +13,10 @@ STAMP  := $(VENV)/.installed
 # Every .py below src/ and exercises/checking, in subpackages too (find, not a one-level wildcard).
 SOURCE_HASH = $(shell cat $$(find src exercises/checking -name '*.py' -not -path '*/__pycache__/*' | LC_ALL=C sort) pyproject.toml requirements/lock.txt _config.yml book/data/benchmark.json book/data/long_runs.json | sha256sum | cut -c1-16)
 
+# Sphinx notices a change to a page or to the config, not to the book's own extensions: an edit under
+# book/_ext must rewrite every page (but re-executes nothing), so the doctrees are keyed on this hash.
+EXTENSIONS_HASH = $(shell cat $$(find book/_ext -name '*.py' | LC_ALL=C sort) | sha256sum | cut -c1-16)
+
 # The translated editions (book/_ext/editions.py), each from locales/<language>/LC_MESSAGES.
 LANGUAGES := vi
 
@@ -25,12 +29,15 @@ $(STAMP): requirements/lock.txt pyproject.toml
 	touch $@
 
 # book and pdf share the execution cache and the doctrees; either clears them, and the pages built
-# from them, when the hash above changed since the last build.
+# from them, when the hashes above changed since the last build.
 define FRESH_CACHE
 @mkdir -p _build
 @if [ "$$(cat _build/.source-hash 2>/dev/null)" != "$(SOURCE_HASH)" ]; then \
   rm -rf _build/.jupyter_cache _build/.doctrees _build/html _build/singlehtml $(addprefix _build/,$(LANGUAGES)); \
   echo "library, lock or config changed since the last build: every chapter is executed afresh"; \
+elif [ "$$(cat _build/.extensions-hash 2>/dev/null)" != "$(EXTENSIONS_HASH)" ]; then \
+  rm -rf _build/.doctrees _build/html _build/singlehtml $(addprefix _build/,$(LANGUAGES)); \
+  echo "the book's extensions (book/_ext) changed since the last build: every page is written afresh"; \
 fi
 endef
 
@@ -48,7 +55,7 @@ book: $(STAMP)
 	  $(call EDITION_BUILD,$$language) && \
 	  rm -rf _build/html/$$language && cp -r _build/$$language/_build/html _build/html/$$language || exit 1; \
 	done
-	@echo "$(SOURCE_HASH)" > _build/.source-hash
+	@echo "$(SOURCE_HASH)" > _build/.source-hash && echo "$(EXTENSIONS_HASH)" > _build/.extensions-hash
 
 # After editing a page: bring every translation's catalogue in step with the sources (new messages
 # empty, changed ones fuzzy), then translate what `tests/test_translations.py` lists.
@@ -66,7 +73,7 @@ translations: $(STAMP)
 pdf: $(STAMP) pdf-tools
 	$(FRESH_CACHE)
 	$(BIN)/jupyter-book build . --builder singlehtml -n -W --keep-going
-	@echo "$(SOURCE_HASH)" > _build/.source-hash
+	@echo "$(SOURCE_HASH)" > _build/.source-hash && echo "$(EXTENSIONS_HASH)" > _build/.extensions-hash
 	$(BIN)/python book/print/print_pdf.py _build/singlehtml _build/pdf/closedloop.pdf
 	@# each translation, from its own single-page build: _build/pdf/closedloop.<language>.pdf
 	@for language in $(LANGUAGES); do \
