@@ -71,7 +71,6 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy
 
 from ..codecache import sympy_version
 from ..errors import ClosedLoopError, InputError
@@ -226,6 +225,8 @@ def source_fingerprint():
 
 
 def _provenance(settings):
+    import scipy                            # here: the command line builds its parser from this module
+
     return {
         "closedloop_version": __version__,
         "source_fingerprint": source_fingerprint(),
