@@ -216,6 +216,7 @@ def test_the_solver_classes_are_made_on_first_use_and_are_scipy_s():
     assert methods.SOLVER_CLASSES["LSODA"] is scipy.integrate.LSODA
     assert projected.PROJECTABLE_METHODS is PROJECTABLE_METHODS
     assert PROJECTABLE_METHODS["RK23"] is scipy.integrate.RK23
+    assert solve_ivp_runner.solve_ivp is scipy.integrate.solve_ivp        # tests/test_validation.py replaces it
     assert "SOLVER_CLASSES" in dir(methods)
     for module in (methods, solve_ivp_runner, projected):
         with pytest.raises(AttributeError, match="no_such_name"):
