@@ -15,9 +15,12 @@ It prints, for each version,
 2. the wall and CPU time of ``closedloop simulate --case 2`` (a new interpreter, import included),
    best of ``--repeats`` runs with a warm cache (one run first fills it), the two versions
    taking turns; and, as floors measured in the same turns, an interpreter that only imports
-   ``scipy.integrate`` (which ``solve_ivp`` needs) and one that does nothing.
+   ``scipy.integrate`` (which ``solve_ivp`` needs), one that only imports numpy (the floor of a
+   run with ``ode.dop853``, which needs numpy and scipy's compiled DOP853 but no scipy
+   subpackage, issue 14) and one that does nothing.
 
-Then whether the after version's ``simulate --case 2`` imported sympy or matplotlib.
+Then whether the after version's ``simulate --case 2`` imported sympy, matplotlib or a scipy
+subpackage (it should import only the extension ``scipy.integrate._dop``).
 The cache folder is a temporary one (``CLOSEDLOOP_CACHE_DIR``), removed at the end.
 
 Bytecode: an installed package imports its modules from cached bytecode. So that both versions
@@ -133,6 +136,7 @@ def main():
         commands = {label: (["-c", SIMULATE, "simulate", "--case", "2"], source)
                     for label, source in versions.items()}
         commands["floor: import scipy.integrate"] = (["-c", "import scipy.integrate"], ROOT / "src")
+        commands["floor: import numpy"] = (["-c", "import numpy"], ROOT / "src")
         commands["floor: python -c pass"] = (["-c", "pass"], ROOT / "src")
         best = {label: [float("inf"), float("inf")] for label in commands}
         for _ in range(args.repeats):                         # interleaved: every command in every turn
@@ -145,14 +149,18 @@ def main():
             print(f"  {label:32s} {wall:6.3f} s  {cpu:6.3f} s")
         (before_wall, before_cpu), (after_wall, after_cpu) = (best[label] for label in versions)
         print(f"  after / before = {after_wall / before_wall:.2f} (wall), {after_cpu / before_cpu:.2f} (CPU)")
+        numpy_wall, numpy_cpu = best["floor: import numpy"]
+        print(f"  after - numpy floor = {after_wall - numpy_wall:.3f} s (wall), {after_cpu - numpy_cpu:.3f} s (CPU)")
 
         probe = ("import sys, io, contextlib\nfrom closedloop.cli import main\n"
                  "with contextlib.redirect_stdout(io.StringIO()): main(['simulate', '--case', '2'])\n"
-                 "print('sympy' in sys.modules, 'matplotlib' in sys.modules, file=sys.stderr)")
+                 "scipy = sorted(name for name in sys.modules if name.startswith('scipy.'))\n"
+                 "print('sympy' in sys.modules, 'matplotlib' in sys.modules, ','.join(scipy) or 'none', "
+                 "file=sys.stderr)")
         _, _, err = run(["-c", probe], ROOT / "src", cache)
-        sympy_loaded, matplotlib_loaded = err.split()[-2:]
+        sympy_loaded, matplotlib_loaded, scipy_loaded = err.split()[-3:]
         print(f"\nafter, simulate --case 2 with a warm cache: sympy imported: {sympy_loaded}, "
-              f"matplotlib imported: {matplotlib_loaded}")
+              f"matplotlib imported: {matplotlib_loaded}, scipy's modules: {scipy_loaded}")
 
 
 if __name__ == "__main__":

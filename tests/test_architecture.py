@@ -12,6 +12,9 @@ module level or inside a function, and resolves it to the full module name it re
   draws, so a figure change never touches the benchmark's source fingerprint.
 - No module imports sympy, matplotlib or bokeh when it is imported (only inside the functions
   that derive or draw): ``import closedloop`` and a run with cached generated code need none.
+- Nor any subpackage of scipy (scipy.integrate imports scipy.optimize, scipy.sparse, scipy.special,
+  scipy.linalg: about 0.3 s), so that a run with the compiled DOP853, which needs only its extension
+  (closedloop.simulation.dop853_code), imports none (issue 14).
 """
 
 import ast
@@ -152,13 +155,33 @@ def test_the_scan_resolves_relative_imports_in_a_package_init():
 IMPORTED_ONLY_WHEN_NEEDED = ("sympy", "matplotlib", "bokeh")
 
 
+def is_scipy_subpackage(name):
+    """``scipy.integrate``, ``scipy.linalg.lapack``, ...: anything below scipy (scipy itself is cheap)."""
+    return name.startswith("scipy.")
+
+
+def imported_with_the_module(path):
+    """``(line, statement)`` of each import of ``path`` that runs when it is imported and reaches sympy,
+    matplotlib, bokeh or a subpackage of scipy."""
+    return [(line, statement)
+            for line, statement, names in imports_of(path.read_text(encoding="utf-8"), module_name(path),
+                                                     path.name == "__init__.py", at_import=True)
+            if any(is_scipy_subpackage(name) or any(reaches(name, heavy) for heavy in IMPORTED_ONLY_WHEN_NEEDED)
+                   for name in names)]
+
+
 @pytest.mark.parametrize("path", MODULES, ids=module_name)
-def test_no_module_imports_sympy_or_a_figure_library_when_it_is_imported(path):
-    found = [f"line {line}: {statement}"
-             for line, statement, names in imports_of(path.read_text(encoding="utf-8"), module_name(path),
-                                                      path.name == "__init__.py", at_import=True)
-             if any(reaches(name, heavy) for name in names for heavy in IMPORTED_ONLY_WHEN_NEEDED)]
+def test_no_module_imports_sympy_a_figure_library_or_a_scipy_subpackage_when_it_is_imported(path):
+    found = [f"line {line}: {statement}" for line, statement in imported_with_the_module(path)]
     assert not found, "imported with the module (import it inside the function that needs it): " + "; ".join(found)
+
+
+def test_the_scan_finds_a_scipy_subpackage_imported_with_the_module():
+    source = ("import scipy\nfrom scipy.integrate import ode\nimport scipy.linalg as la\nfrom scipy import optimize\n"
+              "def f():\n    from scipy.optimize import brentq\n")
+    found = [statement for _, statement, names in imports_of(source, "closedloop.simulation.dop853", at_import=True)
+             if any(is_scipy_subpackage(name) for name in names)]
+    assert found == ["from scipy.integrate import ode", "import scipy.linalg as la", "from scipy import optimize"]
 
 
 def test_the_scan_at_import_leaves_out_function_bodies_only():
@@ -179,6 +202,25 @@ def test_every_list_of_methods_comes_from_one_place():
     assert baseline.BASELINE_METHODS == methods.SOLVE_IVP_METHODS
     assert benchmark.ALL_METHODS == ("RK45", "DOP853", "Radau", "BDF", "LSODA", "ode.dop853")
     assert benchmark.EXPLICIT_RK == ("RK45", "DOP853")
+
+
+def test_the_solver_classes_are_made_on_first_use_and_are_scipy_s():
+    import scipy.integrate
+
+    from closedloop.formulations import projected
+    from closedloop.simulation import solve_ivp_runner
+
+    assert methods.solver_classes() is methods.SOLVER_CLASSES is solve_ivp_runner.SOLVER_CLASSES
+    assert list(methods.SOLVER_CLASSES) == list(methods.SOLVE_IVP_METHODS)
+    assert methods.SOLVER_CLASSES["DOP853"] is scipy.integrate.DOP853
+    assert methods.SOLVER_CLASSES["LSODA"] is scipy.integrate.LSODA
+    assert projected.PROJECTABLE_METHODS is PROJECTABLE_METHODS
+    assert PROJECTABLE_METHODS["RK23"] is scipy.integrate.RK23
+    assert solve_ivp_runner.solve_ivp is scipy.integrate.solve_ivp        # tests/test_validation.py replaces it
+    assert "SOLVER_CLASSES" in dir(methods)
+    for module in (methods, solve_ivp_runner, projected):
+        with pytest.raises(AttributeError, match="no_such_name"):
+            module.no_such_name
 
 
 # -- old homes ----------------------------------------------------------------------------------

@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .errors import InputError, IntegrationError
 from .formulations import Baumgarte
@@ -85,6 +84,8 @@ def rk4_real_axis_limit():
     With ``beta = 0`` the fast root of (15) is ``mu = -2 alpha``, so RK4 is stable
     for ``alpha dt`` up to half this value.
     """
+    from scipy.optimize import brentq     # here only: importing scipy.optimize costs about 0.1 s
+
     return brentq(lambda x: abs(rk4_stability_function(-x)) - 1.0, 2.0, 3.0, xtol=1e-14)
 
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.linalg import qr
 
 from .errors import SingularConfigurationError, at_time
 
@@ -207,5 +206,7 @@ def null_space_basis(Phi, basis="svd", t=None):
         )
     if basis == "svd":
         return Vt[r:].T
+    from scipy.linalg import qr           # here only: importing scipy.linalg costs about 0.2 s
+
     pivots = qr(Phi, mode="r", pivoting=True)[1]
     return orthogonal_complement(Phi, np.sort(pivots[r:]), np.sort(pivots[:r]), t)

@@ -4,18 +4,20 @@ Every list of methods in the library (what :func:`closedloop.simulate` accepts,
 what the projection can reset, what the baseline and the benchmark run, the
 command line's help) is taken from here.  The module imports nothing from
 closedloop, so any module may use it without an import cycle.
+
+Nor does it import scipy.integrate (whose package imports scipy.optimize, scipy.sparse,
+scipy.linalg and scipy.special, about 0.3 s) until a solver class is asked for:
+:data:`SOLVER_CLASSES` is made on first use (a module ``__getattr__``, PEP 562), so that a run
+with the compiled DOP853 (:mod:`closedloop.simulation.dop853_code`) never imports it.
 """
 
 from __future__ import annotations
 
-from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
-
 __all__ = ["SOLVE_IVP_METHODS", "COMPILED_METHOD", "SOLVER_METHODS", "SOLVER_CLASSES",
-           "EXPLICIT_RUNGE_KUTTA_METHODS", "IMPLICIT_METHODS"]
+           "EXPLICIT_RUNGE_KUTTA_METHODS", "IMPLICIT_METHODS", "solver_classes"]
 
 #: The methods of ``scipy.integrate.solve_ivp``, by name and in the order the book lists them.
-SOLVER_CLASSES = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
-SOLVE_IVP_METHODS = tuple(SOLVER_CLASSES)
+SOLVE_IVP_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 #: The compiled DOP853 of ``scipy.integrate.ode`` (:mod:`closedloop.simulation.dop853`).
 COMPILED_METHOD = "ode.dop853"
 #: Every method :func:`closedloop.simulate` accepts by name.
@@ -25,3 +27,27 @@ SOLVER_METHODS = SOLVE_IVP_METHODS + (COMPILED_METHOD,)
 EXPLICIT_RUNGE_KUTTA_METHODS = ("RK23", "RK45", "DOP853")
 #: The implicit methods of solve_ivp (for stiff problems).
 IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
+
+
+def solver_classes():
+    """``{name: class}`` of the :data:`SOLVE_IVP_METHODS` (scipy.integrate's OdeSolver subclasses).
+
+    Imports scipy.integrate at the first call; every call returns the same dict, ``SOLVER_CLASSES``.
+    """
+    classes = globals().get("SOLVER_CLASSES")
+    if classes is None:
+        import scipy.integrate
+
+        classes = globals()["SOLVER_CLASSES"] = {name: getattr(scipy.integrate, name) for name in SOLVE_IVP_METHODS}
+    return classes
+
+
+def __getattr__(name):
+    """``SOLVER_CLASSES``, made on first use: the methods of ``scipy.integrate.solve_ivp`` by name."""
+    if name == "SOLVER_CLASSES":
+        return solver_classes()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | {"SOLVER_CLASSES"})

@@ -34,13 +34,20 @@ import numpy as np
 from ..errors import ConvergenceError, InputError, SingularConfigurationError, at_time
 from ..kinematics import NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE, newton_on_constraints
 from ..linalg import solve_small
-from ..methods import EXPLICIT_RUNGE_KUTTA_METHODS, SOLVER_CLASSES
+from ..methods import EXPLICIT_RUNGE_KUTTA_METHODS, solver_classes
 from .redundant import Augmented
 
 __all__ = ["Projected", "project_state", "PROJECTABLE_METHODS"]
 
-#: The solve_ivp methods whose state can be reset after a step.
-PROJECTABLE_METHODS = {name: SOLVER_CLASSES[name] for name in EXPLICIT_RUNGE_KUTTA_METHODS}
+
+def __getattr__(name):
+    """``PROJECTABLE_METHODS``: the solve_ivp methods whose state can be reset after a step, ``{name: class}``
+    (made on first use, so that importing this module does not import scipy.integrate)."""
+    if name == "PROJECTABLE_METHODS":
+        classes = solver_classes()
+        methods = globals()["PROJECTABLE_METHODS"] = {name: classes[name] for name in EXPLICIT_RUNGE_KUTTA_METHODS}
+        return methods
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _minimum_norm(Phi, residual, t, s):
@@ -169,14 +176,14 @@ class Projected(Augmented):
 
     def check_method(self, method):
         """Raise InputError unless ``method`` names a method whose state can be reset."""
-        if method not in PROJECTABLE_METHODS:
+        if not (isinstance(method, str) and method in EXPLICIT_RUNGE_KUTTA_METHODS):
             shown = method if isinstance(method, str) else getattr(method, "__name__", repr(method))
             raise InputError(
                 f"method: the projected formulation needs an explicit Runge-Kutta method whose state "
-                f"can be reset after each step ({', '.join(PROJECTABLE_METHODS)}), got {shown!r}"
+                f"can be reset after each step ({', '.join(EXPLICIT_RUNGE_KUTTA_METHODS)}), got {shown!r}"
             )
 
     def integrator(self, system, method):
         """The OdeSolver class that solve_ivp runs: ``method`` with a projection after each step."""
         self.check_method(method)
-        return _projecting_solver(PROJECTABLE_METHODS[method], system)
+        return _projecting_solver(solver_classes()[method], system)

@@ -33,7 +33,6 @@ import itertools
 import math
 
 import numpy as np
-from scipy.optimize import brentq, minimize_scalar
 
 from .. import hermite
 from ..errors import SingularConfigurationError
@@ -103,6 +102,8 @@ def _refine(system, times, s, sd, k, beyond=None):
     end, where the run failed) the last step's interpolant is also followed, extrapolated,
     up to that time.
     """
+    from scipy.optimize import brentq, minimize_scalar   # here only: importing scipy.optimize costs about 0.1 s
+
     last = times.size - 1
     pieces = [(a, times[a], times[a + 1]) for a in (k - 1, k) if 0 <= a < last and times[a + 1] > times[a]]
     if beyond is not None and k == last and last >= 1 and beyond > times[last]:

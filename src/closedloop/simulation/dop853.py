@@ -37,11 +37,11 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import DOP853, ode
 
 from .. import hermite
 from ..errors import IntegrationError
 from ..methods import COMPILED_METHOD
+from . import dop853_code
 
 __all__ = ["METHOD", "ALLOWED_OPTIONS", "integrate_segment", "Segment", "step_stages", "continuous_extension",
            "interpolate"]
@@ -154,25 +154,21 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     with warnings.catch_warnings():          # the code's warnings become the errors raised below
         warnings.simplefilter("ignore", UserWarning)
         if t_end > t0:
-            solver = ode(counted).set_integrator(
-                "dop853", rtol=rtol, atol=atol, nsteps=nsteps, first_step=min(watch.last_step, t_end - t0),
-                max_step=max_step)
-            solver.set_solout(watch.solout)
-            solver.set_initial_value(y0, t0)
-            solver.integrate(t_end)
+            t_code, y_code, code = dop853_code.dopri853(      # what scipy's ode(counted) "dop853" runs
+                counted, t0, y0, t_end, rtol=rtol, atol=atol, nsteps=nsteps,
+                first_step=min(watch.last_step, t_end - t0), max_step=max_step, solout=watch.solout)
             if failure:
                 raise _with_path(failure[0], watch, getattr(failure[0], "t", None))
             if watch.hit is not None:
                 return _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failure, evaluations,
                                           y0.size)
-            code = solver.get_return_code()
             if code < 0:
                 error = IntegrationError(
-                    f"ode.dop853 failed at t = {solver.t:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
+                    f"ode.dop853 failed at t = {t_code:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
                     "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains")
-                error.return_code, error.t = code, float(solver.t)
+                error.return_code, error.t = code, float(t_code)
                 raise _with_path(error, watch)
-            watch.last_t, watch.last_y = t_end, np.array(solver.y, dtype=float)
+            watch.last_t, watch.last_y = t_end, np.array(y_code, dtype=float)
     if dense is not None:
         dense.finish(watch.last_y)          # an output at t_end beyond the last step end by round-off
     t, y = watch.outputs(y0.size)
@@ -432,9 +428,12 @@ class _DenseOutputs:
 
 #: DOP853's coefficients (Hairer's, as scipy's DOP853 carries them): the 12 stages of the step,
 #: its weights, and the three extra stages and the D matrix of the continuous extension.
-_STAGES = DOP853.n_stages                                         # 12
-_A, _B, _C = DOP853.A, DOP853.B, DOP853.C
-_A_EXTRA, _C_EXTRA, _D = DOP853.A_EXTRA, DOP853.C_EXTRA, DOP853.D
+#: (scipy.integrate.DOP853's class attributes, from the module they are taken from:
+#: :func:`closedloop.simulation.dop853_code.coefficients`.)
+_COEFFICIENTS = dop853_code.coefficients()
+_STAGES = _COEFFICIENTS.N_STAGES                                  # 12
+_A, _B, _C = _COEFFICIENTS.A[:_STAGES, :_STAGES], _COEFFICIENTS.B, _COEFFICIENTS.C[:_STAGES]
+_A_EXTRA, _C_EXTRA, _D = _COEFFICIENTS.A[_STAGES + 1:], _COEFFICIENTS.C[_STAGES + 1:], _COEFFICIENTS.D
 _ABS_B = np.abs(_B)
 #: (row, a_row[:row], c) of the extension's three extra stages.
 _EXTRA_STAGES = [(s, a[:s].copy(), c) for s, (a, c) in enumerate(zip(_A_EXTRA, _C_EXTRA), start=_STAGES + 1)]
@@ -609,13 +608,11 @@ def _locate(rhs, switching, start, hit, directions, rtol, atol, failure):
 
 def _redo(rhs, ta, ya, t, rtol, atol):
     """The state at t, integrated from the step start ``(ta, ya)`` by the same code."""
-    solver = ode(rhs).set_integrator("dop853", rtol=rtol, atol=atol, nsteps=DEFAULT_NSTEPS,
-                                     first_step=t - ta)
-    solver.set_initial_value(ya, ta)
-    y = solver.integrate(t)                 # inside integrate_segment's catch_warnings
-    if solver.get_return_code() < 0:
+    t_code, y, code = dop853_code.dopri853(rhs, ta, ya, t, rtol=rtol, atol=atol, nsteps=DEFAULT_NSTEPS,
+                                           first_step=t - ta)
+    if code < 0:
         raise IntegrationError(
-            f"ode.dop853 failed at t = {solver.t:.6g} s while locating a switch: "
-            f"{_RETURN_CODES.get(solver.get_return_code())}. Try a solve_ivp method"
+            f"ode.dop853 failed at t = {t_code:.6g} s while locating a switch: "
+            f"{_RETURN_CODES.get(code)}. Try a solve_ivp method"
         )
     return np.array(y, dtype=float)

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..methods import solver_classes
 from .result import Piece
-from .solve_ivp_runner import SOLVER_CLASSES
 
 __all__ = ["integrate_naive"]
 
@@ -50,7 +50,7 @@ def integrate_naive(run, t0, s0, sd0):
     unpack = formulation.unpacker(system)
     unpack.seed(s0)
     changes = np.zeros(len(run.names), dtype=int)
-    solver_class = SOLVER_CLASSES[options.method] if isinstance(options.method, str) else options.method
+    solver_class = solver_classes()[options.method] if isinstance(options.method, str) else options.method
     solver = solver_class(_rhs_choosing_branch(run, unpack, changes), t0, formulation.pack(system, s0, sd0),
                           run.t_end, rtol=options.rtol, atol=options.atol, **options.solver_options)
     t_eval = options.t_eval

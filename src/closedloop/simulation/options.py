@@ -7,7 +7,6 @@ import types
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import OdeSolver
 
 from ..errors import InputError
 from ..formulations import Formulation
@@ -149,6 +148,13 @@ def methods_taking(formulation, switching="events"):
     return tuple(names)
 
 
+def _is_ode_solver(method):
+    """Whether the class ``method`` is a subclass of scipy.integrate.OdeSolver (imported only here, for a class)."""
+    from scipy.integrate import OdeSolver
+
+    return issubclass(method, OdeSolver) and method is not OdeSolver
+
+
 def _check_method(formulation, method, switching, options):
     if not isinstance(formulation, Formulation):
         raise InputError(
@@ -156,7 +162,7 @@ def _check_method(formulation, method, switching, options):
             f"ClosedForm or Projected), got {formulation!r}"
         )
     if not ((isinstance(method, str) and method in SOLVER_METHODS)
-            or (isinstance(method, type) and issubclass(method, OdeSolver) and method is not OdeSolver)):
+            or (isinstance(method, type) and _is_ode_solver(method))):
         choices = methods_taking(formulation, switching if switching in SWITCHING else "events")
         raise InputError(f"method: unknown {shown(method)}; choose one of {', '.join(choices)}")
     formulation.check_method(method)

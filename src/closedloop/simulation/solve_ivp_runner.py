@@ -20,14 +20,32 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau, solve_ivp
 
 from ..errors import ClosedLoopError, IntegrationError, SingularConfigurationError
+from ..methods import solver_classes
 
 __all__ = ["segment", "counting_solver", "SOLVER_CLASSES", "STANDING_STEPS"]
 
-#: solve_ivp's methods by name, as OdeSolver classes.
-SOLVER_CLASSES = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+
+def __getattr__(name):
+    """``SOLVER_CLASSES``, solve_ivp's methods by name as OdeSolver classes (:func:`closedloop.methods.solver_classes`),
+    and ``solve_ivp``: made on first use, so that importing this module does not import scipy.integrate."""
+    if name == "SOLVER_CLASSES":
+        return solver_classes()
+    if name == "solve_ivp":
+        return _solve_ivp()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _solve_ivp():
+    """scipy's solve_ivp, imported at the first call and kept as this module's ``solve_ivp`` (which a test
+    may replace)."""
+    function = globals().get("solve_ivp")
+    if function is None:
+        from scipy.integrate import solve_ivp as function
+
+        globals()["solve_ivp"] = function
+    return function
 
 
 #: Successful steps in a row that do not advance t, after which a solver counts as stuck.
@@ -43,7 +61,7 @@ def counting_solver(run, method):
 
     It stops the integration (a failed step) when the run's ``max_steps`` is reached.
     """
-    base = SOLVER_CLASSES[method] if isinstance(method, str) else method
+    base = solver_classes()[method] if isinstance(method, str) else method
     max_steps = run.options.max_steps
     watch = run.path.active
 
@@ -160,6 +178,7 @@ def segment(run, t0, s0, sd0, mode):
 
 def _solve(run, rhs, t0, y0, events, reached, overflow):
     """solve_ivp over one segment; the budget and "could not locate a switch" become IntegrationErrors."""
+    solve_ivp = _solve_ivp()
     options, formulation = run.options, run.formulation
     solver_options = dict(options.solver_options)
     if "first_step" in solver_options:              # a segment may be shorter than the first step asked for

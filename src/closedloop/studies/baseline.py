@@ -35,7 +35,6 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from .. import gas_law
 from ..errors import IntegrationError
@@ -198,6 +197,8 @@ class LagrangesBaseline:
         positive_number("rtol", rtol)
         positive_number("atol", atol)
         positive_integer("max_nfev", max_nfev)
+        from scipy.integrate import solve_ivp   # here, before the clock starts (not when the command line starts)
+
         y0 = np.concatenate((initial_state.s, initial_state.sd))
         calls = [0]
 

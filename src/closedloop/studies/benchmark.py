@@ -63,15 +63,12 @@ import hashlib
 import json
 import math
 import os
-import platform
-import statistics
 import sys
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy
 
 from ..codecache import sympy_version
 from ..errors import ClosedLoopError, InputError
@@ -226,6 +223,9 @@ def source_fingerprint():
 
 
 def _provenance(settings):
+    import platform                         # here: the command line builds its parser from this module
+    import scipy
+
     return {
         "closedloop_version": __version__,
         "source_fingerprint": source_fingerprint(),
@@ -293,6 +293,8 @@ def _measure(entry, context, case, method, rtol, repeats):
         return row
     difference = np.abs(y - context.reference)
     error_t10 = float(np.abs(y_timed[:, 0] - context.reference[:, context.check_index]).max())
+    import statistics                       # here: the command line builds its parser from this module
+
     row.update(status="ok", cpu_s=statistics.median(cpu), cpu_repeats_s=cpu, nfev=int(nfev),
                error_t10=error_t10, max_state_error=max(float(difference.max()), error_t10),
                max_constraint_error=float(f_norm.max()), max_velocity_constraint_error=float(fd_norm.max()))

@@ -27,7 +27,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid, quad
 
 from .. import gas_law, hermite
 from ..errors import InputError
@@ -70,6 +69,8 @@ def torque_work_per_turn(reading=DEFAULT_READING):
     float
         About 260.4 J in the decimal readings.
     """
+    from scipy.integrate import quad      # here only, as every scipy subpackage (tests/test_architecture.py)
+
     reading = get_reading(reading)
     period = 2.0 * math.pi / OMEGA
     mean = quad(lambda t: drive_torque(t, reading), 0.0, period)[0] / period
@@ -99,6 +100,8 @@ def gas_work_per_cycle(parameters=None, reading=DEFAULT_READING):
     float
         About -260.4 J in the paper's reading: the gas takes energy out.
     """
+    from scipy.integrate import quad
+
     parameters = instance_of("parameters", SliderCrankParameters() if parameters is None else parameters,
                              SliderCrankParameters)
     reading = get_reading(reading)
@@ -212,6 +215,8 @@ def non_conservative_work(system, result):
     -------
     WorkHistory
     """
+    from scipy.integrate import cumulative_trapezoid
+
     reading = instance_of("system", system, SliderCrankSystem).reading
     values = _values(system)
     t, phi, phi_dot = result.t, result.coordinate("phi"), result.velocity("phi")
