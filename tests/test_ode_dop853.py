@@ -8,7 +8,7 @@ from scipy.integrate import DOP853, ode, solve_ivp
 
 from closedloop import InputError, IntegrationError, Minimal, simulate
 from closedloop.formulations import ClosedForm
-from closedloop.simulation.dop853 import continuous_extension, integrate_segment, interpolate, step_stages
+from closedloop.simulation.dop853 import _counting, continuous_extension, integrate_segment, interpolate, step_stages
 from closedloop.slider_crank import initial_state
 
 
@@ -224,3 +224,30 @@ def test_outputs_on_a_grid_are_as_accurate_as_the_tolerance(case_2_runs):
     grid, reference = case_2_runs["grid"], case_2_runs["reference"]
     state, ref = np.vstack((grid.s, grid.sd)), np.vstack((reference.s, reference.sd))
     assert np.max(np.abs(state - ref) / (1e-9 + 1e-9 * np.abs(ref))) < 1.0
+
+
+def test_one_output_time_in_a_long_segment_costs_its_step_three_evaluations_and_nothing_per_call():
+    # One output time among some 80 steps: only the steps just before it record their calls, and the
+    # output is the one a dense grid through the same time gives, bit for bit.
+    options = dict(rtol=1e-10, atol=1e-10, switching=lambda t, y: [], directions=[])
+    plain = integrate_segment(oscillator, 0.0, np.array([1.0, 0.0]), 20.0, **options)
+    one = integrate_segment(oscillator, 0.0, np.array([1.0, 0.0]), 20.0, outputs=np.array([13.3]), **options)
+    grid = np.sort(np.append(np.linspace(0.0, 20.0, 401), 13.3))
+    dense = integrate_segment(oscillator, 0.0, np.array([1.0, 0.0]), 20.0, outputs=grid, **options)
+    assert len(plain.steps) > 50 and one.steps == plain.steps
+    assert one.nfev == plain.nfev + 3                       # the stages were recorded, not recomputed (+16)
+    assert one.t.tolist() == [13.3]
+    assert np.array_equal(one.y[:, 0], dense.y[:, np.searchsorted(grid, 13.3)])
+    assert abs(one.y[0, 0] - math.cos(13.3)) < 1e-9
+
+
+def test_the_counting_right_hand_side_records_its_calls_only_while_asked():
+    calls = []
+    counted, evaluations, record = _counting(oscillator, math.inf, [], calls)
+    counted(0.0, np.array([1.0, 0.0]))
+    record(False)
+    counted(0.5, np.array([1.0, 0.0]))
+    record(True)
+    counted(1.0, np.array([0.0, 1.0]))
+    assert evaluations() == 3
+    assert [(t, list(f)) for t, f in calls] == [(0.0, [0.0, -1.0]), (1.0, [1.0, 0.0])]

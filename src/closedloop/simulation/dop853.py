@@ -146,9 +146,9 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     y0 = np.asarray(y0, dtype=float)
     failure = []                            # an exception raised inside the compiled code's callbacks
     calls = None if outputs is None else []  # (t, f) of every call, for the stages of the steps
-    counted, evaluations = _counting(rhs, max_nfev, failure, calls)
+    counted, evaluations, record = _counting(rhs, max_nfev, failure, calls)
     directions = tuple(float(d) for d in directions)
-    dense = None if outputs is None else _DenseOutputs(counted, calls, outputs, t0, y0, t_end)
+    dense = None if outputs is None else _DenseOutputs(counted, calls, outputs, t0, y0, t_end, record)
     watch = _StepWatch(switching, directions, t0, y0, first_step, keep_steps=outputs is None, failure=failure,
                        dense=dense)
     with warnings.catch_warnings():          # the code's warnings become the errors raised below
@@ -185,13 +185,20 @@ def _with_path(error, watch, failed_at=None):
 
 
 def _counting(rhs, max_nfev, failure, calls=None):
-    """``(counted, evaluations)``: rhs that counts its calls (and stops at max_nfev), and the count.
+    """``(counted, evaluations, record)``: rhs that counts its calls (and stops at max_nfev), the count, and
+    ``record(on)``, which turns the recording of the calls on or off.
 
     The compiled caller cannot propagate an exception: a failing call stores it
     in ``failure`` and returns NaN, and the segment re-raises it.  With a list
-    ``calls``, every call appends ``(t, f)`` to it (for :class:`_DenseOutputs`).
+    ``calls``, every call made while recording is on (at first it is) appends
+    ``(t, f)`` to it (for :class:`_DenseOutputs`); without one, ``record`` does nothing.
     """
     count = 0
+    recording = calls is not None
+
+    def record(on):
+        nonlocal recording
+        recording = on and calls is not None
 
     if calls is not None:
         def counted(t, y):
@@ -204,7 +211,8 @@ def _counting(rhs, max_nfev, failure, calls=None):
             except Exception as error:
                 failure.append(_failed_at(t, error))
                 f = [math.nan] * y.size
-            calls.append((t, f))
+            if recording:
+                calls.append((t, f))
             return f
     elif max_nfev == math.inf:
         def counted(t, y):
@@ -227,7 +235,7 @@ def _counting(rhs, max_nfev, failure, calls=None):
                 failure.append(_failed_at(t, error))
                 return [math.nan] * y.size
 
-    return counted, lambda: count
+    return counted, lambda: count, record
 
 
 def _failed_at(t, error):
@@ -335,6 +343,13 @@ class _DenseOutputs:
     check fails (a code that calls in another order) the step's stages are
     recomputed from ``(ta, ya, h)`` and checked the same way.
 
+    The calls are recorded only where they may be needed: after an accepted step
+    of size h ending at ``tb``, recording stays on for the next step if the next
+    output time lies within :data:`_LOOKAHEAD` h of ``tb`` (far enough for the two
+    steps that follow, whose first one gives f at the start of the second), and
+    is off otherwise, so that sparse outputs (one time in a long run) cost no
+    bookkeeping per call.
+
     Parameters
     ----------
     rhs : callable
@@ -346,15 +361,19 @@ class _DenseOutputs:
     t0, y0 : float, ndarray
         The segment's start (an output if ``t0`` is requested).
     t_end : float
+    record : callable, optional
+        ``record(on)`` turns the recording of the calls into ``calls`` on or off (see :func:`_counting`).
     """
 
-    def __init__(self, rhs, calls, times, t0, y0, t_end):
+    def __init__(self, rhs, calls, times, t0, y0, t_end, record=None):
         times = np.asarray(times, dtype=float)
         if times.ndim != 1 or np.any(np.diff(times) <= 0):
             times = np.unique(times)
         self.rhs = rhs
         self.times = times[(times >= t0) & (times <= t_end)]
         self.next = 0                       # index of the first time not yet output
+        self.next_time = float(self.times[0]) if self.times.size else math.inf   # that time, or inf
+        self.record = record if record is not None else (lambda on: None)
         self.calls = calls                  # (t, f) of the calls since the last accepted step
         self.f_start = None                 # f at the start of the current step
         self.crossing = None                # the calls and f_start of the step that crossed a switch
@@ -372,10 +391,11 @@ class _DenseOutputs:
         """An accepted step from ``(ta, ya)`` to ``(tb, yb)``: output the requested times in ``(ta, tb]``."""
         calls, f_start = self.calls, self.f_start
         self.f_start = calls[-1][1] if calls and calls[-1][0] == tb else None
-        stop = int(np.searchsorted(self.times, tb, side="right"))
-        if stop > self.next:
+        if tb >= self.next_time:
+            stop = int(np.searchsorted(self.times, tb, side="right"))
             self._interpolate(ta, ya, tb, yb, f_start, calls, self.times[self.next:stop])
         calls.clear()
+        self.record(self.next_time - tb <= _LOOKAHEAD * (tb - ta))
 
     def crossed(self):
         """``solout`` stopped the code at a step that crossed a switch: keep that step's calls."""
@@ -403,6 +423,7 @@ class _DenseOutputs:
         self.out_t.append(times)
         self.out_y.append(states)
         self.next += times.size
+        self.next_time = float(self.times[self.next]) if self.next < self.times.size else math.inf
 
     def _interpolate(self, ta, ya, tb, yb, f_start, calls, times):
         if times[0] == tb:                  # only the step end: the code's own state, no extension needed
@@ -438,6 +459,12 @@ _ABS_B = np.abs(_B)
 #: (row, a_row[:row], c) of the extension's three extra stages.
 _EXTRA_STAGES = [(s, a[:s].copy(), c) for s, (a, c) in enumerate(zip(_A_EXTRA, _C_EXTRA), start=_STAGES + 1)]
 _EPS = np.finfo(float).eps
+#: How far ahead of a step end, in units of that step's size h, the next output time makes
+#: _DenseOutputs record the calls of the next step.  The compiled code lets a step grow at most
+#: 6 times (scipy's ``ifactor`` of dop853) and stretches the last step to t_end by at most 1 %, so the
+#: two steps that follow end before 6.06 h + 6.06^2 h = 42.8 h; a step that grew more than that
+#: would only have its stages recomputed (13 more right-hand sides), never a wrong output.
+_LOOKAHEAD = 50.0
 #: A step end rebuilt from the stages may differ from the code's by this many units of round-off
 #: of the sum ``ya + h sum b_i k_i`` (the code sums in another order, and its h differs from
 #: ``tb - ta`` by round-off in tb).
