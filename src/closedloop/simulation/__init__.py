@@ -197,7 +197,7 @@ def _result(run, start, with_multipliers):
     t, s, sd, modes, work_done = run.outputs.assemble(options.work)
     f_norm, fd_norm = system.constraint_errors(s, sd)
     cpu_time = time.process_time() - start
-    lam = multipliers(system, formulation, t, s, sd, modes) if with_multipliers else None
+    lam = multipliers(system, formulation, t, s, sd, modes()) if with_multipliers else None
     step_f, step_fd = run.path.largest_residuals
     largest_f = max(float(np.max(f_norm, initial=0.0)), step_f)
     largest_fd = max(float(np.max(fd_norm, initial=0.0)), step_fd)

@@ -163,7 +163,11 @@ def find_change_point(system, times, s, sd, failed_at=None, limit=None, evaluate
                        EPSILON * (1.0 + np.max(np.abs(s), axis=0)))
     lower_left = np.concatenate(([True], smallest[1:] <= smallest[:-1]))
     lower_right = np.concatenate((smallest[:-1] <= smallest[1:], [True]))
-    minima = np.flatnonzero(lower_left & lower_right)
+    # a minimum where Phi_s is well conditioned is passed over below, unrefined: only the others are looked at
+    low_enough = smallest < REFINE_BELOW * largest
+    if failed_at is not None:
+        low_enough[-1] = True
+    minima = np.flatnonzero(lower_left & lower_right & low_enough)
     for k in minima:
         t, low, high, position = float(times[k]), float(smallest[k]), float(largest[k]), s[:, k]
         if low < REFINE_BELOW * high or (failed_at is not None and k == times.size - 1):

@@ -148,9 +148,9 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     calls = None if outputs is None else []  # (t, f) of every call, for the stages of the steps
     counted, evaluations, record = _counting(rhs, max_nfev, failure, calls)
     directions = tuple(float(d) for d in directions)
-    dense = None if outputs is None else _DenseOutputs(counted, calls, outputs, t0, y0, t_end, record)
-    watch = _StepWatch(switching, directions, t0, y0, first_step, keep_steps=outputs is None, failure=failure,
-                       dense=dense)
+    dense = None if outputs is None else _DenseOutputs(counted, calls, outputs, t0, y0, t_end, record,
+                                                       first_step=min(first_step, t_end - t0))
+    watch = _StepWatch(switching, directions, t0, y0, first_step, failure=failure, dense=dense)
     with warnings.catch_warnings():          # the code's warnings become the errors raised below
         warnings.simplefilter("ignore", UserWarning)
         if t_end > t0:
@@ -171,9 +171,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
             watch.last_t, watch.last_y = t_end, np.array(y_code, dtype=float)
     if dense is not None:
         dense.finish(watch.last_y)          # an output at t_end beyond the last step end by round-off
-    t, y = watch.outputs(y0.size)
-    return Segment(t, y, t_end, watch.last_y.copy(), None, evaluations(), watch.last_step, watch.steps,
-                   np.array(watch.ends).T, np.array(watch.end_times))
+    return watch.segment(t_end, watch.last_y.copy(), None, evaluations(), y0.size)
 
 
 def _with_path(error, watch, failed_at=None):
@@ -256,16 +254,15 @@ class _StepWatch:
 
     ``last_t, last_y, last_g``: the last accepted step end and its switching
     values; ``last_step``: its step size; ``hit``: ``(t, y, g)`` of the step that
-    crossed, or None; ``times, states``: the outputs at step ends (without
-    ``dense``); ``steps, ends``: every step; ``dense``: the requested outputs, or None.
+    crossed, or None; ``steps, ends, end_times``: every step (the ends are also the
+    outputs without ``dense``); ``dense``: the requested outputs, or None.
     """
 
-    def __init__(self, switching, directions, t0, y0, first_step, keep_steps, failure, dense=None):
-        self.switching, self.directions, self.failure, self.keep_steps = switching, directions, failure, keep_steps
+    def __init__(self, switching, directions, t0, y0, first_step, failure, dense=None):
+        self.switching, self.directions, self.failure = switching, directions, failure
         self.last_t, self.last_y, self.last_g = t0, y0.copy(), list(switching(t0, y0))
         self.last_step, self.hit, self.dense = first_step, None, dense
-        self.times, self.states = ([t0], [y0.copy()]) if keep_steps else ([], [])
-        self.steps, self.ends, self.end_times = [], [y0.copy()], [t0]
+        self.steps, self.ends, self.end_times = [], [self.last_y], [t0]
 
     def solout(self, t, y):
         if self.failure:
@@ -284,13 +281,10 @@ class _StepWatch:
         ta, ya = self.last_t, self.last_y
         self.last_step = t - self.last_t
         self.steps.append(self.last_step)
-        y = y.copy()                         # one copy serves all three lists: none is changed in place
+        y = y.copy()                         # one copy serves both: neither is changed in place
         self.ends.append(y)
         self.end_times.append(t)
         self.last_t, self.last_y, self.last_g = t, y, g
-        if self.keep_steps:
-            self.times.append(t)
-            self.states.append(y)
         if self.dense is not None:
             try:
                 self.dense.step(ta, ya, t, y)
@@ -300,11 +294,12 @@ class _StepWatch:
                 return -1
         return 0
 
-    def outputs(self, size):
-        """``(t, y)`` of the segment's outputs: the step ends, or the requested times."""
-        if self.dense is not None:
-            return self.dense.outputs(size)
-        return np.array(self.times), np.array(self.states).reshape(len(self.times), size).T
+    def segment(self, t_stop, y_stop, event, nfev, size):
+        """The Segment that ends at ``(t_stop, y_stop)``: its outputs are the requested times, or the step ends
+        (solve_ivp's convention: with the switch, if one stopped it)."""
+        step_times, step_ends = np.array(self.end_times), np.array(self.ends).reshape(len(self.ends), size).T
+        t, y = (step_times, step_ends) if self.dense is None else self.dense.outputs(size)
+        return Segment(t, y, t_stop, y_stop, event, nfev, self.last_step, self.steps, step_ends, step_times)
 
 
 def _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failure, evaluations, size):
@@ -313,18 +308,13 @@ def _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failur
                                       directions, rtol, atol, failure)
     if failure:
         raise failure[0]
-    if watch.dense is None:                 # solve_ivp's convention: the event ends sol.t
-        watch.times.append(t_event)
-        watch.states.append(y_event)
-    else:                                   # the requested times before the switch, inside the crossing step
+    if watch.dense is not None:             # the requested times before the switch, inside the crossing step
         watch.dense.before_switch(watch.last_t, watch.last_y, watch.hit[0], watch.hit[1], t_event)
         if failure:
             raise failure[0]
-    watch.ends.append(y_event)
+    watch.ends.append(y_event)              # without dense outputs, the event also ends the outputs
     watch.end_times.append(t_event)
-    t, y = watch.outputs(size)
-    return Segment(t, y, t_event, y_event, event, evaluations(), watch.last_step, watch.steps,
-                   np.array(watch.ends).T, np.array(watch.end_times))
+    return watch.segment(t_event, y_event, event, evaluations(), size)
 
 
 class _DenseOutputs:
@@ -363,9 +353,11 @@ class _DenseOutputs:
     t_end : float
     record : callable, optional
         ``record(on)`` turns the recording of the calls into ``calls`` on or off (see :func:`_counting`).
+    first_step : float, optional
+        The code's first step (0: its own choice, unknown), which no accepted first step exceeds.
     """
 
-    def __init__(self, rhs, calls, times, t0, y0, t_end, record=None):
+    def __init__(self, rhs, calls, times, t0, y0, t_end, record=None, first_step=0.0):
         times = np.asarray(times, dtype=float)
         if times.ndim != 1 or np.any(np.diff(times) <= 0):
             times = np.unique(times)
@@ -374,6 +366,7 @@ class _DenseOutputs:
         self.next = 0                       # index of the first time not yet output
         self.next_time = float(self.times[0]) if self.times.size else math.inf   # that time, or inf
         self.record = record if record is not None else (lambda on: None)
+        self.record(not first_step > 0.0 or self.next_time - t0 <= _LOOKAHEAD * first_step)
         self.calls = calls                  # (t, f) of the calls since the last accepted step
         self.f_start = None                 # f at the start of the current step
         self.crossing = None                # the calls and f_start of the step that crossed a switch
@@ -548,10 +541,16 @@ def interpolate(F, ya, x):
     (no cancellation in them: the same round-off as the nested form, all outputs at once).
     """
     x = np.asarray(x, dtype=float)
-    factors = np.empty((F.shape[0], x.size))
-    factors[0::2] = x
-    factors[1::2] = 1.0 - x
-    return F.T @ np.cumprod(factors, axis=0) + ya[:, None]
+    products = np.empty((F.shape[0], x.size))
+    if x.size < 32:                         # a few outputs: one cumprod costs fewer numpy calls
+        products[0::2] = x
+        products[1::2] = 1.0 - x
+        return F.T @ np.cumprod(products, axis=0) + ya[:, None]
+    rest = 1.0 - x                          # many: the same running product row by row (cumprod down
+    products[0] = x                         # axis 0 of a long array is four times slower)
+    for j in range(1, F.shape[0]):
+        np.multiply(products[j - 1], rest if j % 2 else x, out=products[j])
+    return F.T @ products + ya[:, None]
 
 
 def _recorded_stages(calls, f_start, ta, h, tb, size):

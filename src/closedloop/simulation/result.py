@@ -174,14 +174,24 @@ class Outputs:
                                      np.zeros((s.size, times.size)), mode, stuck, work))
 
     def assemble(self, track_work):
-        """``(t, s, sd, modes, work)`` of the whole run, with repeated times at joins dropped."""
+        """``(t, s, sd, modes, work)`` of the whole run, with repeated times at joins dropped.
+
+        ``modes`` is a function that returns the list of ``(mode, stuck)`` of every output point
+        (a Python object per point: built only when asked for, by the multipliers).
+        """
         pieces = self.pieces
         t = np.concatenate([p.t for p in pieces])
         s = np.concatenate([p.s for p in pieces], axis=1)
         sd = np.concatenate([p.sd for p in pieces], axis=1)
         keep = np.concatenate(([True], np.diff(t) > 0))
-        modes = list(itertools.compress(itertools.chain.from_iterable(
-            itertools.repeat((p.mode, p.stuck), p.t.size) for p in pieces), keep.tolist()))
+
+        def modes():
+            return list(itertools.compress(itertools.chain.from_iterable(
+                itertools.repeat((p.mode, p.stuck), p.t.size) for p in pieces), keep.tolist()))
+
+        if keep.all():                       # no repeated time: nothing to drop
+            work = np.concatenate([p.work for p in pieces]) if track_work else None
+            return t, s, sd, modes, work
         work = np.concatenate([p.work for p in pieces])[keep] if track_work else None
         return t[keep], s[:, keep], sd[:, keep], modes, work
 

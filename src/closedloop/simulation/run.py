@@ -59,6 +59,7 @@ class Run:
         self.partition_singularities = []
         self.stopped_at = None
         self.switch_events, self.sticking_intervals = [], []
+        self._fast_accelerations = {}     # the formulation's switch_accelerations per branch
         # The step ends of the current segment, checked for change points.
         self.path = change_points.PathWatch(system, formulation, options)
 
@@ -151,7 +152,10 @@ class Run:
     # -- the switching rule applied to one state ----------------------------------
     def _accelerations(self, t, s, sd, mode):
         """s'' of (12) on branch ``mode``: the formulation's fast form where it has one, else (12) solved."""
-        fast = self.formulation.switch_accelerations(self.system, mode)
+        try:
+            fast = self._fast_accelerations[mode]
+        except KeyError:                             # asked for once per branch and run
+            fast = self._fast_accelerations[mode] = self.formulation.switch_accelerations(self.system, mode)
         if fast is not None:
             try:
                 return fast(t, s, sd)
