@@ -359,10 +359,11 @@ class _DenseOutputs:
 
     def __init__(self, rhs, calls, times, t0, y0, t_end, record=None, first_step=0.0):
         times = np.asarray(times, dtype=float)
-        if times.ndim != 1 or np.any(np.diff(times) <= 0):
+        if times.ndim != 1 or (times.size > 1 and np.any(np.diff(times) <= 0)):
             times = np.unique(times)
         self.rhs = rhs
-        self.times = times[(times >= t0) & (times <= t_end)]
+        # the times in [t0, t_end] of the increasing times
+        self.times = times[np.searchsorted(times, t0, side="left"):np.searchsorted(times, t_end, side="right")]
         self.next = 0                       # index of the first time not yet output
         self.next_time = float(self.times[0]) if self.times.size else math.inf   # that time, or inf
         self.record = record if record is not None else (lambda on: None)
