@@ -180,9 +180,12 @@ class Outputs:
         (a Python object per point: built only when asked for, by the multipliers).
         """
         pieces = self.pieces
-        t = np.concatenate([p.t for p in pieces])
-        s = np.concatenate([p.s for p in pieces], axis=1)
-        sd = np.concatenate([p.sd for p in pieces], axis=1)
+        if len(pieces) == 1:                 # one piece: its arrays, not a copy
+            t, s, sd = pieces[0].t, pieces[0].s, pieces[0].sd
+        else:
+            t = np.concatenate([p.t for p in pieces])
+            s = np.concatenate([p.s for p in pieces], axis=1)
+            sd = np.concatenate([p.sd for p in pieces], axis=1)
         keep = np.concatenate(([True], np.diff(t) > 0))
 
         def modes():
