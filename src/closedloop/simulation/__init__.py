@@ -150,9 +150,10 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     another matter: each output costs some (interpolation, unpacking, constraint
     errors), and with DOP853 and ode.dop853 so does each step that holds one.
     ode.dop853 pays about what DOP853 pays, which is a larger share of its
-    cheaper run: with 10 000 outputs a run took 2.7 times as long as without
-    them with ode.dop853 (2.3 times over 20 s), 2.1 times with DOP853 (1.5
-    over 20 s), and 4 times with LSODA.
+    cheaper run: with 10 000 outputs a run took 2.3 times as long as without
+    them with ode.dop853 (2.3 times over 20 s too, where nearly every step
+    holds outputs), 2.1 times with DOP853 (1.5 over 20 s), and 4 times with
+    LSODA.
 
     The fixed-step :func:`closedloop.fixed_step.rk4` is not one of these
     methods and takes no output times: its outputs are its steps.
