@@ -455,10 +455,11 @@ _EXTRA_STAGES = [(s, a[:s].copy(), c) for s, (a, c) in enumerate(zip(_A_EXTRA, _
 _EPS = np.finfo(float).eps
 #: How far ahead of a step end, in units of that step's size h, the next output time makes
 #: _DenseOutputs record the calls of the next step.  The compiled code lets a step grow at most
-#: 6 times (scipy's ``ifactor`` of dop853) and stretches the last step to t_end by at most 1 %, so the
-#: two steps that follow end before 6.06 h + 6.06^2 h = 42.8 h; a step that grew more than that
-#: would only have its stages recomputed (13 more right-hand sides), never a wrong output.
-_LOOKAHEAD = 50.0
+#: IFACTOR = 6 times (:mod:`~closedloop.simulation.dop853_code`) and stretches the last step to t_end by
+#: at most 1 %, so the two steps that follow end before 6.06 h + 6.06^2 h = 42.8 h (here with a 20 %
+#: margin); a step that grew more than that would only have its stages recomputed (13 more right-hand
+#: sides), never a wrong output.
+_LOOKAHEAD = 1.2 * (1.01 * dop853_code.IFACTOR) * (1.0 + 1.01 * dop853_code.IFACTOR)
 #: A step end rebuilt from the stages may differ from the code's by this many units of round-off
 #: of the sum ``ya + h sum b_i k_i`` (the code sums in another order, and its h differs from
 #: ``tb - ta`` by round-off in tb).
