@@ -8,7 +8,7 @@ from scipy.integrate import DOP853, ode, solve_ivp
 
 from closedloop import InputError, IntegrationError, Minimal, simulate
 from closedloop.formulations import ClosedForm
-from closedloop.simulation.dop853 import _counting, continuous_extension, integrate_segment, interpolate, step_stages
+from closedloop.simulation.dop853 import REJECTION_FACTOR, _counting, continuous_extension, integrate_segment, interpolate, step_stages
 from closedloop.slider_crank import initial_state
 
 
@@ -35,6 +35,28 @@ def test_direction_filters_crossings_and_outputs_end_before_the_switch():
     assert abs(seg.t_stop - 1.5 * math.pi) < 1e-10
     assert list(seg.t) == [0.0, 0.5, 1.0, 4.0]            # 5.0 lies beyond the stop
     assert np.allclose(seg.y[0], np.cos(seg.t), atol=1e-10)
+
+
+def test_a_rejected_step_is_retried_at_no_less_than_the_rejection_factor_of_its_size():
+    # A first step of 2 s on cos t at rtol 1e-11 is rejected, again and again: each attempt ends with
+    # its 12th stage at t0 + h (c_12 = 1), the calls 11, 22, ... after f(t0).  scipy's default fac1 = 0.3
+    # retried at 0.3 h whatever the error (its C translation), which this factor replaces.
+    times = []
+
+    def recorded(t, y):
+        times.append(t)
+        return oscillator(t, y)
+
+    seg = integrate_segment(recorded, 0.0, np.array([1.0, 0.0]), 10.0, rtol=1e-11, atol=1e-11,
+                            switching=lambda t, y: [], directions=[], first_step=2.0)
+    first = seg.steps[0]
+    attempts = [t for t in times[11::11] if t >= first]
+    attempts = attempts[:attempts.index(first) + 1]        # from the first attempt to the accepted one
+    assert attempts[0] == 2.0 and len(attempts) >= 3       # rejected at least twice
+    ratios = np.array(attempts[1:]) / np.array(attempts[:-1])
+    assert REJECTION_FACTOR == 0.6
+    assert ratios.min() >= REJECTION_FACTOR * (1 - 1e-12)
+    assert ratios.max() < 1.0
 
 
 def test_an_exception_in_the_right_hand_side_comes_out_instead_of_a_hang():

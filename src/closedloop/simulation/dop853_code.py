@@ -114,7 +114,8 @@ def coefficients():
     return _module(COEFFICIENTS_NAME, _load_coefficients)
 
 
-def dopri853(f, t0, y0, t_end, *, rtol, atol, nsteps, first_step=0.0, max_step=0.0, solout=None):
+def dopri853(f, t0, y0, t_end, *, rtol, atol, nsteps, first_step=0.0, max_step=0.0, solout=None,
+             dfactor=DFACTOR):
     """Integrate ``y' = f(t, y)`` from ``t0`` to ``t_end`` with the compiled DOP853: ``(t, y, code)``.
 
     The same call as ``solver = ode(f).set_integrator("dop853", rtol=rtol, atol=atol,
@@ -139,6 +140,11 @@ def dopri853(f, t0, y0, t_end, *, rtol, atol, nsteps, first_step=0.0, max_step=0
         0 lets the code choose.
     solout : callable, optional
         ``solout(t, y) -> int`` after every accepted step (and once at ``t0``); -1 stops the code.
+    dfactor : float, optional
+        The code's ``fac1`` (scipy's ``dfactor``), the smallest ratio of a new step to the
+        last: scipy's default :data:`DFACTOR` takes scipy's steps.  In scipy's C translation
+        (``dop.c``, scipy 1.17) it is also the ratio of every retry to a rejected step: see
+        :data:`closedloop.simulation.dop853.REJECTION_FACTOR`.
 
     Returns
     -------
@@ -152,7 +158,7 @@ def dopri853(f, t0, y0, t_end, *, rtol, atol, nsteps, first_step=0.0, max_step=0
     y = np.asarray(y0, dtype=float).copy()  # the code changes y in place
     n = len(y)
     work = np.zeros((11 * n + 21,), float)
-    work[1], work[2], work[3], work[4] = SAFETY, DFACTOR, IFACTOR, BETA
+    work[1], work[2], work[3], work[4] = SAFETY, dfactor, IFACTOR, BETA
     work[5], work[6] = max_step, first_step
     iwork = np.zeros((21,), dtype=np.int32)
     try:
