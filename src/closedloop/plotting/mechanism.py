@@ -424,7 +424,7 @@ def animate_slider_crank(result, parameters, fps=15, speed=None, title=None, fra
         Frames per second of playback.
     speed : float, optional
         Seconds of motion per second of playback; default: see :func:`playback` (20 s of motion
-        play at 2x real time).  Shown on every frame when it is not 1.
+        play at 3x real time).  Shown on every frame when it is not 1.
     title : str, optional
         Drawn on every frame (e.g. the case).
     frames : int, optional
@@ -623,8 +623,9 @@ def animate_four_bar(result, lengths, fps=15, speed=None, title=None, frames=Non
 
 # -- the shared player -------------------------------------------------------------------------
 
-#: At most this many frames by default (about 0.75 MB of palette PNGs for the slider-crank).
-MAX_FRAMES = 150
+#: At most this many frames by default (about 0.5 MB of palette PNGs for the slider-crank): 20 s of
+#: motion play at 3x real time, in 100 frames that cost about 1.5 s to draw.
+MAX_FRAMES = 100
 #: A run shorter than this [s] is played in slow motion over this many seconds.
 MIN_PLAYBACK = 4.0
 
