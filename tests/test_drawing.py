@@ -109,7 +109,7 @@ def test_four_bar_drawing_closes_the_loop_and_marks_every_symbol():
 
 
 def test_playback_is_at_least_15_frames_a_second():
-    assert playback(20.0) == (150, 2.0)               # 20 s of motion in 10 s of playback
+    assert playback(20.0) == (100, 3.0)               # 20 s of motion in 6.7 s of playback
     assert playback(5.0) == (75, 1.0)
     assert playback(0.5, fps=20) == (80, 0.125)            # slow motion over 4 s
     frames, speed = playback(3.0, frames=30)

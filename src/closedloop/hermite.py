@@ -81,8 +81,15 @@ def first_root(g0, g1, d0, d1):
     positive_left = values(left, g0, g1, d0, d1) > 0.0
     u = 0.5 * (left + right)
     active = pending.copy()
-    for _ in range(_MAX_ITERATIONS):
-        if not active.any():
+    for iteration in range(_MAX_ITERATIONS):
+        remaining = np.flatnonzero(active)
+        if remaining.size <= _FEW:          # the last few (bisection's long tails): one by one, the same steps
+            for j in remaining:
+                root.flat[j] = _refine_one(float(g0.flat[j]), float(g1.flat[j]), float(d0.flat[j]),
+                                           float(d1.flat[j]), float(u.flat[j]), float(left.flat[j]),
+                                           float(right.flat[j]), bool(positive_left.flat[j]),
+                                           _MAX_ITERATIONS - iteration)
+            active[...] = False
             break
         value = values(u, g0, g1, d0, d1)
         hit = active & (value == 0.0)
@@ -119,8 +126,14 @@ def _first_root_of_one(g0, g1, d0, d1):
     else:
         return 1.0
     positive_left = values(left, g0, g1, d0, d1) > 0.0
-    u = 0.5 * (left + right)
-    for _ in range(_MAX_ITERATIONS):
+    return _refine_one(g0, g1, d0, d1, 0.5 * (left + right), left, right, positive_left, _MAX_ITERATIONS)
+
+
+def _refine_one(g0, g1, d0, d1, u, left, right, positive_left, iterations):
+    """Safeguarded Newton from ``u`` in the bracket ``[left, right]``, at most ``iterations`` steps:
+    the refinement of :func:`first_root` for one root on Python floats (the arrays' loop hands its
+    last few roots over to it, with their state, so they get the very same steps)."""
+    for _ in range(iterations):
         value = values(u, g0, g1, d0, d1)
         if value == 0.0:
             return u
