@@ -65,6 +65,8 @@ translations: $(STAMP)
 	$(BIN)/python book/_ext/editions.py config en > _build/gettext-build/_config.yml
 	$(BIN)/jupyter-book build . -q --builder custom --custom-builder gettext \
 	  --config _build/gettext-build/_config.yml --path-output _build/gettext-build
+	@# the templates' source locations, relative to their folder two levels below this one, as in the catalogues
+	find _build/gettext-build/_build/gettext -name '*.pot' -exec sed -i 's|^#: \.\./\.\./\.\./\.\./|#: ../../|; s| \.\./\.\./\.\./\.\./| ../../|g' {} +
 	$(BIN)/sphinx-intl update -p _build/gettext-build/_build/gettext -d locales $(foreach language,$(LANGUAGES),-l $(language))
 
 # The book as one PDF: Jupyter Book's single-page build (the same pages and numbering as the site,
