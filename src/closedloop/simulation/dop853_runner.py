@@ -95,7 +95,8 @@ def _check_partition(run, result, t0):
     else:
         Phi_z = system.constraints_and_jacobian_many(result.step_ends[:system.n])[1][:, system.z_index]
         det = np.linalg.det(np.moveaxis(Phi_z, 2, 0))
-    if (det > 0.0).all() or (det < 0.0).all():         # one sign along the whole segment
+    values = det.tolist()                              # a few step ends: Python floats, no numpy calls
+    if all(v > 0.0 for v in values) or all(v < 0.0 for v in values):   # one sign along the whole segment
         return
     flips = np.nonzero(np.sign(det[1:]) * np.sign(det[:-1]) < 0)[0]
     if flips.size:
