@@ -118,7 +118,7 @@ class Run:
         return SegmentEnd(t_stop, s_end, sd_end, event)
 
     def check_finite(self, t_out, y_out):
-        if np.isfinite(y_out).all():
+        if y_out.size == 0 or np.isfinite(y_out).all():     # most segments hold no output time
             return
         bad = ~np.all(np.isfinite(y_out), axis=0)
         k = int(np.argmax(bad))
