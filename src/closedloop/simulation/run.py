@@ -167,11 +167,14 @@ class Run:
 
     def side_rates(self, t, s, sd, mode, i):
         """dh_i/dt along the constrained motion (12) with switch i off and on: ``(off, on)``."""
-        switching_functions = self.force.switching_functions
-        now = switching_functions(t, s, sd)
+        values = self.force.switching_values         # Python floats: h_i alone, no arrays
+
+        def h(time, q, qd):
+            return values(time, q, qd)[i]
+
+        now = h(t, s, sd)
         ahead = s + rule.RATE_STEP * sd               # the positions a step ahead: the same on both branches
-        return tuple(rule.switching_rate(switching_functions, t, s, sd, self._accelerations(t, s, sd, branch), now,
-                                         s_ahead=ahead)[i]
+        return tuple(rule.switching_rate(h, t, s, sd, self._accelerations(t, s, sd, branch), now, s_ahead=ahead)
                      for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
 
     def decide(self, t, s, sd, mode, i):
