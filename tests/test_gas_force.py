@@ -68,3 +68,19 @@ def test_gas_force_enters_with_the_readings_sign(slider_crank):
     assert opposing[2] == pytest.approx(gas_force(3.0, 1.0)) and opposing[2] < 0
     assert printed[2] == pytest.approx(-gas_force(3.0, 1.0))
     assert opposing[0] == opposing[1] == 0.0
+
+
+def test_switching_values_are_the_switching_functions_as_floats_bit_for_bit():
+    # The compiled runner watches switching_values after every step; it must give exactly the numbers of
+    # switching_functions (the rate of a switch decision and the located crossing depend on them).
+    from closedloop.forces import SwitchedForce
+
+    force = GasForce()
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        s, sd = rng.normal(scale=3.0, size=3), rng.normal(scale=10.0, size=3)
+        s[2] = 5.0 + rng.normal(scale=1e-9)          # near the switch x_C = 5, where the subtraction cancels
+        values = force.switching_values(0.3, s, sd)
+        assert all(type(v) is float for v in values)
+        assert values == force.switching_functions(0.3, s, sd).tolist()
+        assert values == SwitchedForce.switching_values(force, 0.3, s, sd)   # the base class's conversion

@@ -38,6 +38,17 @@ class SwitchedForce:
         """Values of the switching functions h_i at one state, shape (k,)."""
         return np.empty(0)
 
+    def switching_values(self, t, s, sd) -> list:
+        """The values of :meth:`switching_functions` as a list of Python floats.
+
+        Evaluated after every accepted step of the compiled runner
+        (:mod:`closedloop.simulation.dop853_runner`); override it for speed (the
+        default converts the array of :meth:`switching_functions`).  It must give
+        the same numbers.
+        """
+        values = self.switching_functions(t, s, sd)
+        return values.tolist() if isinstance(values, np.ndarray) else list(values)
+
     def __call__(self, t, s, sd, mode) -> np.ndarray:
         """The generalised force, shape (n,), on the smooth branch ``mode``."""
         raise NotImplementedError

@@ -230,6 +230,10 @@ class GasForce(SwitchedForce):
     def switching_functions(self, t, s, sd):
         return np.array([sd[2], s[2] - gas_law.CHANGE_POINT])
 
+    def switching_values(self, t, s, sd):
+        """:meth:`switching_functions` as Python floats (the same numbers, no array built)."""
+        return [float(sd[2]), float(s[2]) - gas_law.CHANGE_POINT]
+
     def __call__(self, t, s, sd, mode):
         return np.array(self.components(t, s, sd, mode))
 

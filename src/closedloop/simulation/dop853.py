@@ -212,7 +212,19 @@ def _counting(rhs, max_nfev, failure, calls=None):
         nonlocal recording
         recording = on and calls is not None
 
-    if calls is not None:
+    if calls is not None and max_nfev == math.inf:     # the common case: outputs asked for, no budget
+        def counted(t, y):
+            nonlocal count
+            count += 1
+            try:
+                f = rhs(t, y)
+            except Exception as error:
+                failure.append(_failed_at(t, error))
+                f = [math.nan] * y.size
+            if recording:
+                calls.append((t, f))
+            return f
+    elif calls is not None:
         def counted(t, y):
             nonlocal count
             count += 1

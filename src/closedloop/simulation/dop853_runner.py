@@ -19,22 +19,20 @@ __all__ = ["segment"]
 
 def _switching_values(run, unpack):
     """``switching(t, y) -> list``: the values of the switching functions (and stop_when) at a state."""
-    switching_functions = run.force.switching_functions if run.names else None
+    switching_values = run.force.switching_values if run.names else None
     stop_when = run.options.stop_when
-    if stop_when is None and switching_functions is not None:        # the common case, called after every step
+    if stop_when is None and switching_values is not None:        # the common case, called after every step
         def switching(t, y):
             s, sd = unpack(y, t)
-            values = switching_functions(t, s, sd)
-            return values.tolist() if isinstance(values, np.ndarray) else list(values)
+            return switching_values(t, s, sd)
 
         return switching
 
     def switching(t, y):
-        if switching_functions is None and stop_when is None:
+        if switching_values is None and stop_when is None:
             return ()
         s, sd = unpack(y, t)
-        values = switching_functions(t, s, sd) if switching_functions is not None else []
-        values = values.tolist() if isinstance(values, np.ndarray) else list(values)
+        values = switching_values(t, s, sd) if switching_values is not None else []
         return values + [stop_when(t, s, sd)] if stop_when is not None else values
 
     return switching
@@ -95,7 +93,8 @@ def _check_partition(run, result, t0):
     else:
         Phi_z = system.constraints_and_jacobian_many(result.step_ends[:system.n])[1][:, system.z_index]
         det = np.linalg.det(np.moveaxis(Phi_z, 2, 0))
-    if (det > 0.0).all() or (det < 0.0).all():         # one sign along the whole segment
+    values = det.tolist()                              # a few step ends: Python floats, no numpy calls
+    if all(v > 0.0 for v in values) or all(v < 0.0 for v in values):   # one sign along the whole segment
         return
     flips = np.nonzero(np.sign(det[1:]) * np.sign(det[:-1]) < 0)[0]
     if flips.size:

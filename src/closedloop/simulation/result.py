@@ -222,6 +222,11 @@ def multipliers(system, formulation, t, s, sd, modes):
     return lam
 
 
+def _largest(tolerance):
+    """The largest entry of a tolerance: a float as it is (no numpy call), else of its array."""
+    return tolerance if isinstance(tolerance, float) else np.max(tolerance)
+
+
 def residual_warnings(constraint_error, velocity_constraint_error, max_speed, rtol, atol):
     """Why a run's own residuals say that it is meaningless: a list of sentences, empty if none.
 
@@ -236,7 +241,7 @@ def residual_warnings(constraint_error, velocity_constraint_error, max_speed, rt
     the mechanism has come apart by more than the accuracy asked for allows
     (Augmented at rtol 1e-3 reaches |f| = 4 m), and its motion is not an answer.
     """
-    tol = float(max(np.max(rtol), np.max(atol)))
+    tol = float(max(_largest(rtol), _largest(atol)))
     bound = math.sqrt(tol)
     warnings = []
     if not math.isfinite(constraint_error) or constraint_error > bound:

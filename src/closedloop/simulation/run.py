@@ -29,7 +29,9 @@ MAX_RELEASE_SAMPLES = 1_000_000
 
 def _scale(s, sd):
     """``1 + max |s_k|, |s'_k|``: the size of a state, for the thresholds of the switching rule."""
-    return 1.0 + float(max(np.abs(s).max(), np.abs(sd).max()))
+    sizes = [abs(v) for v in s.tolist() + sd.tolist()]          # Python floats: a few entries, no numpy calls
+    largest = max(sizes)
+    return 1.0 + (math.nan if any(v != v for v in sizes) else largest)   # NaN as numpy's max gives it
 
 
 class SegmentEnd(NamedTuple):
@@ -116,7 +118,7 @@ class Run:
         return SegmentEnd(t_stop, s_end, sd_end, event)
 
     def check_finite(self, t_out, y_out):
-        if np.isfinite(y_out).all():
+        if y_out.size == 0 or np.isfinite(y_out).all():     # most segments hold no output time
             return
         bad = ~np.all(np.isfinite(y_out), axis=0)
         k = int(np.argmax(bad))
@@ -165,9 +167,14 @@ class Run:
 
     def side_rates(self, t, s, sd, mode, i):
         """dh_i/dt along the constrained motion (12) with switch i off and on: ``(off, on)``."""
-        switching_functions = self.force.switching_functions
-        now = switching_functions(t, s, sd)
-        return tuple(rule.switching_rate(switching_functions, t, s, sd, self._accelerations(t, s, sd, branch), now)[i]
+        values = self.force.switching_values         # Python floats: h_i alone, no arrays
+
+        def h(time, q, qd):
+            return values(time, q, qd)[i]
+
+        now = h(t, s, sd)
+        ahead = s + rule.RATE_STEP * sd               # the positions a step ahead: the same on both branches
+        return tuple(rule.switching_rate(h, t, s, sd, self._accelerations(t, s, sd, branch), now, s_ahead=ahead)
                      for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
 
     def decide(self, t, s, sd, mode, i):

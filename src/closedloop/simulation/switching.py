@@ -67,16 +67,19 @@ PROBE_TIME = 1e-3
 PROBE_STEPS = 8
 
 
-def switching_rate(h, t, s, sd, sdd, h_now=None):
+def switching_rate(h, t, s, sd, sdd, h_now=None, s_ahead=None):
     """dh/dt along the motion: ``(h(t + e, s + e s', s' + e s'') - h(t, s, s')) / e``, e = RATE_STEP.
 
     Works for one state (s of shape (n,)) or K states (shape (n, K)) alike, as
-    ``h`` does; ``h_now``, when given, is ``h(t, s, sd)``.
+    ``h`` does; ``h_now``, when given, is ``h(t, s, sd)``, and ``s_ahead``, when
+    given, is ``s + e s'`` (the same for every branch's s'').
     """
     eps = RATE_STEP
     if h_now is None:
         h_now = h(t, s, sd)
-    return (h(t + eps, s + eps * sd, sd + eps * sdd) - h_now) / eps
+    if s_ahead is None:
+        s_ahead = s + eps * sd
+    return (h(t + eps, s_ahead, sd + eps * sdd) - h_now) / eps
 
 
 def decide(off, on, side):
