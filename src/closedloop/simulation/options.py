@@ -205,13 +205,7 @@ def _check_initial_state(system, initial_state):
             f"initial_state: not consistent (|f| = {errors[0]:.3g}, |f'| = {errors[1]:.3g}, allowed "
             f"<= {INITIAL_TOLERANCE:g}); build it with consistent_initial_state"
         )
-    # The inertia check depends on the positions alone (M(s) and Phi_s(s)): one that passed is
-    # remembered for the last positions checked on this system, so that runs repeated from one
-    # state (a benchmark, a study's tolerance sweep) pay its eigenvalue problems once.
-    key = (s0.tobytes(), system.parameter_values.tobytes())
-    if system.generated.get("inertia_checked") != key:
-        _check_inertia(system, s0, sd0, Phi0)
-        system.generated["inertia_checked"] = key
+    _check_inertia(system, s0, sd0, Phi0)
 
 
 #: Eigenvalues of M (and of N^T M N along the free motion) below this times the largest count as zero.
