@@ -97,7 +97,8 @@ def make_test():
         subprocess.run(["git", "clone", "-q", str(ROOT), str(folder / "repo")], check=True)
         repo = folder / "repo"
         start = time.perf_counter()
-        subprocess.run(["make", "-s", ".venv/.installed"], cwd=repo, check=True, stdout=subprocess.DEVNULL)
+        subprocess.run(["make", "-s", ".venv/.installed"], cwd=repo, check=True, stdout=subprocess.DEVNULL,
+                       stderr=subprocess.DEVNULL)
         install = time.perf_counter() - start
         start = time.perf_counter()
         done = subprocess.run(["make", "-s", "test"], cwd=repo, capture_output=True, text=True)
@@ -106,6 +107,9 @@ def make_test():
         print(f"  virtual environment: {install:.0f} s (pip, from its cache)")
         print(f"  make test: {tests:.0f} s = {tests / 60:.1f} min (target <= 7 min), exit {done.returncode}")
         print(f"  {summary[-1].strip('= ') if summary else done.stdout[-500:]}")
+        for line in done.stdout.splitlines():           # which tests failed, if any
+            if line.startswith(("FAILED ", "ERROR ")):
+                print(f"  {line}")
     finally:
         shutil.rmtree(folder, ignore_errors=True)
 

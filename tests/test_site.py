@@ -92,10 +92,14 @@ def open_page(browser, site, page_name):
     page.on("requestfailed", lambda r: "ERR_ABORTED" in (r.failure or "")
             or problems.append(f"request failed: {r.url} ({r.failure})"))
     page.on("response", lambda r: r.status >= 400 and problems.append(f"HTTP {r.status}: {r.url}"))
-    page.goto(f"{site}/{page_name}.html", wait_until="networkidle")
+    # "load" (every script, stylesheet and image), then the typesetting and the fonts it asks for: every
+    # request a page makes is made by then (measured: no request in the 1.5 s after, on any chapter).
+    # "networkidle" waits 0.5 s more on every page for the same requests.
+    page.goto(f"{site}/{page_name}.html", wait_until="load")
     if page.locator("div.math, span.math").count():          # MathJax is only loaded where there is math
         page.wait_for_function("() => window.MathJax && MathJax.startup && MathJax.startup.promise")
         page.evaluate("() => MathJax.startup.promise")
+    page.evaluate("() => document.fonts.ready.then(() => true)")
     return page, problems
 
 
