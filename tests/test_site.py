@@ -96,6 +96,8 @@ def open_page(browser, site, page_name):
     # request a page makes is made by then (measured: no request in the 1.5 s after, on any chapter).
     # "networkidle" waits 0.5 s more on every page for the same requests.
     page.goto(f"{site}/{page_name}.html", wait_until="load")
+    if page_name.rsplit("/", 1)[-1] == "index":              # the front page sends the reader on at once
+        page.wait_for_url(f"**/{toc_pages()[0]}.html", wait_until="load")
     if page.locator("div.math, span.math").count():          # MathJax is only loaded where there is math
         page.wait_for_function("() => window.MathJax && MathJax.startup && MathJax.startup.promise")
         page.evaluate("() => MathJax.startup.promise")

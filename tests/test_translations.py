@@ -146,6 +146,8 @@ def test_the_vietnamese_pages_are_vietnamese(built_site):
                "not", "each", "what", "when", "where", "was", "were", "has", "have", "been"}
     captions = {part["caption"] for part in toc_parts()}
     pages = [page for page in toc_pages() if page != "book/bibliography"]
+    front = BeautifulSoup((built_site / "vi" / "index.html").read_text(encoding="utf-8"), "html.parser")
+    assert front.html.get("lang") == "vi", "the front page (index.html, which sends the reader on)"
     found = {}
     for page in pages:
         soup = BeautifulSoup((built_site / "vi" / f"{page}.html").read_text(encoding="utf-8"), "html.parser")

@@ -32,8 +32,9 @@ def write_front_page(app, exception):
     title = html.escape(app.config.html_title or app.config.project or "")
     icon = (f'<link rel="icon" href="_static/{html.escape(Path(app.config.html_favicon).name)}">'
             if app.config.html_favicon else "")
+    language = html.escape(app.config.language or "en")
     Path(app.outdir, "index.html").write_text(
-        f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{title}</title>{icon}'
+        f'<!DOCTYPE html>\n<html lang="{language}"><head><meta charset="utf-8"><title>{title}</title>{icon}'
         f'<meta http-equiv="Refresh" content="0; url={target}"></head>\n'
         f'<body><p><a href="{target}">{title}</a></p></body></html>\n', encoding="utf-8")
 
