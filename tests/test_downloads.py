@@ -147,6 +147,7 @@ def run_download(page):
 
     import nbclient
     import nbformat
+    from jupyter_client.manager import AsyncKernelManager
 
     source = HTML / "_sources" / f"{page}.ipynb"
     notebook = nbformat.read(source, as_version=4)
@@ -162,10 +163,13 @@ def run_download(page):
             shutil.copyfile(fetched, folder / link)
     shutil.copyfile(source, folder / source.name)
     os.environ.update(reader_environment())
-    client = nbclient.NotebookClient(notebook, timeout=600, kernel_name="python3", allow_errors=True,
+    # Unix sockets in the folder, not TCP ports: two kernels started at once can pick the same free port
+    # (jupyter_client finds one, closes it, and the kernel binds it later), and one of them then dies
+    kernel = AsyncKernelManager(kernel_name="python3", transport="ipc", connection_file=str(folder / ".kernel.json"))
+    client = nbclient.NotebookClient(notebook, km=kernel, timeout=600, allow_errors=True,
                                      resources={"metadata": {"path": str(folder)}})
     try:
-        client.execute()
+        client.execute(cleanup_kc=True)              # the kernel is shut down although the manager is ours
     except Exception as error:                       # kept, and raised by the page's own test
         return f"{type(error).__name__}: {error}"[:3000], links
     finally:
