@@ -28,14 +28,14 @@ twelve calls (:class:`_DenseOutputs` records them and checks that they rebuild t
 code's step end to round-off, else recomputes them); only the three extra stages
 of the extension are new right-hand sides, and only in the steps that contain an
 output time.  The code runs with scipy's settings of ``ode(...).set_integrator("dop853")`` but
-one, the retry of a rejected step (:data:`REJECTION_FACTOR`).  The method is selected by
+two: the retry of a rejected step (:data:`REJECTION_FACTOR`) and the stabilised step size
+control (:data:`STEP_CONTROL_BETA`).  The method is selected by
 ``simulate(..., method="ode.dop853")``.
 """
 
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,7 +45,7 @@ from ..errors import IntegrationError
 from ..methods import COMPILED_METHOD
 from . import dop853_code
 
-__all__ = ["METHOD", "ALLOWED_OPTIONS", "REJECTION_FACTOR", "integrate_segment", "Segment", "step_stages",
+__all__ = ["METHOD", "ALLOWED_OPTIONS", "REJECTION_FACTOR", "STEP_CONTROL_BETA", "integrate_segment", "Segment", "step_stages",
            "continuous_extension", "interpolate"]
 
 #: The method name simulate() uses for this integrator.
@@ -65,6 +65,17 @@ DEFAULT_NSTEPS = 200_000
 #: nothing else: an accepted step (err <= 1) never shrinks below ``safe`` = 0.9 of the last.  In a
 #: scipy whose code follows Hairer's rule, 0.6 is only its floor.
 REJECTION_FACTOR = 0.6
+#: The compiled code's ``beta`` here (scipy's default 0): after an accepted step with error
+#: estimate err (the one before: err_old), the next is ``h min(fac2, max(fac1, safe
+#: err_old^beta / err^(1/8 - beta/5)))`` (fac1 = :data:`REJECTION_FACTOR`, fac2 = 6)
+#: [Hairer, Nørsett, Wanner, section II.4; Hairer and Wanner, section IV.2, "stabilized step
+#: size control"], which damps the cycle of a step that grows, is rejected and grows again.  0.04 is Hairer's value for DOPRI5 (his DOP853 leaves it
+#: at 0).  Measured on the slider-crank (ClosedForm(1, 1), the four cases over 20 s, rtol = atol
+#: from 1e-7 to 1e-11 at 1, 2 and 5 per decade, errors at 10 and 20 s against DOP853 at 1e-13):
+#: 5.5 % fewer right-hand sides than 0 (geometric mean; 2.5 % to 8 % per case), and errors
+#: smaller too (mean log10(error / rtol) 0.63 with 0, 0.49 with 0.04; largest 2.20 and 1.56).
+#: 0.02 to 0.06 save about as much; 0.08 costs more than 0.
+STEP_CONTROL_BETA = 0.04
 _RETURN_CODES = {
     -1: "the input is not consistent",
     -2: "more steps were needed than allowed (nsteps); the problem may be stiff",
@@ -164,25 +175,23 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     dense = None if outputs is None else _DenseOutputs(counted, calls, outputs, t0, y0, t_end, record,
                                                        first_step=min(first_step, t_end - t0))
     watch = _StepWatch(switching, directions, t0, y0, first_step, failure=failure, dense=dense)
-    with warnings.catch_warnings():          # the code's warnings become the errors raised below
-        warnings.simplefilter("ignore", UserWarning)
-        if t_end > t0:
-            t_code, y_code, code = dop853_code.dopri853(      # scipy's ode(counted) "dop853", but for fac1
-                counted, t0, y0, t_end, rtol=rtol, atol=atol, nsteps=nsteps,
-                first_step=min(watch.last_step, t_end - t0), max_step=max_step, solout=watch.solout,
-                dfactor=REJECTION_FACTOR)
-            if failure:
-                raise _with_path(failure[0], watch, getattr(failure[0], "t", None))
-            if watch.hit is not None:
-                return _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failure, evaluations,
-                                          y0.size)
-            if code < 0:
-                error = IntegrationError(
-                    f"ode.dop853 failed at t = {t_code:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
-                    "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains")
-                error.return_code, error.t = code, float(t_code)
-                raise _with_path(error, watch)
-            watch.last_t, watch.last_y = t_end, np.array(y_code, dtype=float)
+    if t_end > t0:
+        t_code, y_code, code = dop853_code.dopri853(      # scipy's ode(counted) "dop853", but for fac1
+            counted, t0, y0, t_end, rtol=rtol, atol=atol, nsteps=nsteps,
+            first_step=min(watch.last_step, t_end - t0), max_step=max_step, solout=watch.solout,
+            dfactor=REJECTION_FACTOR, beta=STEP_CONTROL_BETA)
+        if failure:
+            raise _with_path(failure[0], watch, getattr(failure[0], "t", None))
+        if watch.hit is not None:
+            return _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failure, evaluations,
+                                      y0.size)
+        if code < 0:
+            error = IntegrationError(
+                f"ode.dop853 failed at t = {t_code:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
+                "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains")
+            error.return_code, error.t = code, float(t_code)
+            raise _with_path(error, watch)
+        watch.last_t, watch.last_y = t_end, np.array(y_code, dtype=float)
     if dense is not None:
         dense.finish(watch.last_y)          # an output at t_end beyond the last step end by round-off
     return watch.segment(t_end, watch.last_y.copy(), None, evaluations(), y0.size)
@@ -663,7 +672,8 @@ def _locate(rhs, switching, start, hit, directions, rtol, atol, failure):
 def _redo(rhs, ta, ya, t, rtol, atol):
     """The state at t, integrated from the step start ``(ta, ya)`` by the same code."""
     t_code, y, code = dop853_code.dopri853(rhs, ta, ya, t, rtol=rtol, atol=atol, nsteps=DEFAULT_NSTEPS,
-                                           first_step=t - ta, dfactor=REJECTION_FACTOR)
+                                           first_step=t - ta, dfactor=REJECTION_FACTOR,
+                                           beta=STEP_CONTROL_BETA)
     if code < 0:
         raise IntegrationError(
             f"ode.dop853 failed at t = {t_code:.6g} s while locating a switch: "

@@ -115,7 +115,7 @@ def coefficients():
 
 
 def dopri853(f, t0, y0, t_end, *, rtol, atol, nsteps, first_step=0.0, max_step=0.0, solout=None,
-             dfactor=DFACTOR):
+             dfactor=DFACTOR, beta=BETA):
     """Integrate ``y' = f(t, y)`` from ``t0`` to ``t_end`` with the compiled DOP853: ``(t, y, code)``.
 
     The same call as ``solver = ode(f).set_integrator("dop853", rtol=rtol, atol=atol,
@@ -145,6 +145,10 @@ def dopri853(f, t0, y0, t_end, *, rtol, atol, nsteps, first_step=0.0, max_step=0
         last: scipy's default :data:`DFACTOR` takes scipy's steps.  In scipy's C translation
         (``dop.c``, scipy 1.17) it is also the ratio of every retry to a rejected step: see
         :data:`closedloop.simulation.dop853.REJECTION_FACTOR`.
+    beta : float, optional
+        The code's ``beta`` (Hairer's ``WORK(5)``): the weight of the last accepted step's error
+        in the choice of the next step (stabilised step size control); scipy's default
+        :data:`BETA` = 0 leaves it out.  See :data:`closedloop.simulation.dop853.STEP_CONTROL_BETA`.
 
     Returns
     -------
@@ -158,7 +162,7 @@ def dopri853(f, t0, y0, t_end, *, rtol, atol, nsteps, first_step=0.0, max_step=0
     y = np.asarray(y0, dtype=float).copy()  # the code changes y in place
     n = len(y)
     work = np.zeros((11 * n + 21,), float)
-    work[1], work[2], work[3], work[4] = SAFETY, dfactor, IFACTOR, BETA
+    work[1], work[2], work[3], work[4] = SAFETY, dfactor, IFACTOR, beta
     work[5], work[6] = max_step, first_step
     iwork = np.zeros((21,), dtype=np.int32)
     try:
