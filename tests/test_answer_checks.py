@@ -69,3 +69,17 @@ def test_a_failure_of_the_expected_value_is_the_books_error_not_a_wrong_answer()
     check = checking.Check("x.2", broken, checking.numeric(), "hint", lambda e: e + 1)
     with pytest.raises(ZeroDivisionError):
         check(1.0)
+
+
+SYMBOLIC = [check for check in CHECKS if getattr(check.compare, "__qualname__", "").startswith("symbolic.")]
+
+
+@pytest.mark.parametrize("check", SYMBOLIC[:4], ids=lambda check: check.label)
+@pytest.mark.parametrize("answer", [[None], [{"a": 1}], {1, 2}], ids=["None in a list", "dict in a list", "set"])
+def test_a_symbolic_check_tells_the_wrong_kind_of_entries_without_a_warning(check, answer, capsys, recwarn):
+    # Entries that are not expressions: sympy's Matrix would take them with a deprecation warning (and
+    # the check would say "not right yet"); the student is told what kind of answer is expected instead.
+    right, line = verdict(check, answer, capsys)
+    assert not right
+    assert "expected a sympy expression or matrix" in line
+    assert not [w for w in recwarn if "deprecated" in str(w.message).lower()]

@@ -153,14 +153,23 @@ def symbolic(rtol=1e-9, points=5, seed=2018):
     Symbols are matched by name, so a student's own ``sp.symbols("l1 ...")`` work;
     the answer may not use a symbol the expected value does not have.
     """
+    import warnings
+
     import numpy as np
     import sympy as sp
+    from sympy.utilities.exceptions import SymPyDeprecationWarning
 
     def compare(answer, expected):
         if answer is None or isinstance(answer, (str, bytes, bool)):
             raise WrongKind(f"expected a sympy expression or matrix, got {answer!r}")
-        answer, expected = sp.Matrix([answer]) if not hasattr(answer, "shape") else sp.Matrix(answer), \
-            sp.Matrix([expected]) if not hasattr(expected, "shape") else sp.Matrix(expected)
+        with warnings.catch_warnings():     # entries that are not expressions (a dict, None, a set ...)
+            warnings.simplefilter("error", SymPyDeprecationWarning)
+            try:
+                matrix = sp.Matrix([answer]) if not hasattr(answer, "shape") else sp.Matrix(answer)
+            except SymPyDeprecationWarning:
+                raise WrongKind(f"expected a sympy expression or matrix, got {answer!r}") from None
+        answer = matrix
+        expected = sp.Matrix([expected]) if not hasattr(expected, "shape") else sp.Matrix(expected)
         names = sorted({str(symbol) for symbol in expected.free_symbols})
         if answer.shape != expected.shape or not {str(s) for s in answer.free_symbols} <= set(names):
             return False
