@@ -221,52 +221,19 @@ def _counting(rhs, max_nfev, failure, calls=None):
         nonlocal recording
         recording = on and calls is not None
 
-    if calls is not None and max_nfev == math.inf:     # the common case: outputs asked for, no budget
-        def counted(t, y):
-            nonlocal count
-            count += 1
-            try:
-                f = rhs(t, y)
-            except Exception as error:
-                failure.append(_failed_at(t, error))
-                f = [math.nan] * y.size
-            if recording:
-                calls.append((t, f))
-            return f
-    elif calls is not None:
-        def counted(t, y):
-            nonlocal count
-            count += 1
-            try:
-                if count > max_nfev:
-                    raise BudgetExceeded(t)
-                f = rhs(t, y)
-            except Exception as error:
-                failure.append(_failed_at(t, error))
-                f = [math.nan] * y.size
-            if recording:
-                calls.append((t, f))
-            return f
-    elif max_nfev == math.inf:
-        def counted(t, y):
-            nonlocal count
-            count += 1
-            try:
-                return rhs(t, y)
-            except Exception as error:
-                failure.append(_failed_at(t, error))
-                return [math.nan] * y.size
-    else:
-        def counted(t, y):
-            nonlocal count
-            count += 1
-            try:
-                if count > max_nfev:
-                    raise BudgetExceeded(t)
-                return rhs(t, y)
-            except Exception as error:
-                failure.append(_failed_at(t, error))
-                return [math.nan] * y.size
+    def counted(t, y):
+        nonlocal count
+        count += 1
+        try:
+            if count > max_nfev:
+                raise BudgetExceeded(t)
+            f = rhs(t, y)
+        except Exception as error:
+            failure.append(_failed_at(t, error))
+            f = [math.nan] * y.size
+        if recording:
+            calls.append((t, f))
+        return f
 
     return counted, lambda: count, record
 
