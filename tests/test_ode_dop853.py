@@ -313,6 +313,32 @@ def test_one_output_time_in_a_long_segment_costs_its_step_three_evaluations_and_
     assert abs(one.y[0, 0] - math.cos(13.3)) < 1e-9
 
 
+@pytest.mark.parametrize("t_end, count", [(20.0, 30_001), (1.0, 50_001)])
+def test_outputs_evaluated_together_are_those_of_each_step_alone(t_end, count):
+    # All the steps' outputs are evaluated at once, their basis in groups of steps: over 20 s groups
+    # span several steps (some 370 outputs each); over 1 s each step holds more than a group's outputs
+    # (some 2500).  Each output must be the extension of its own step, computed step by step from
+    # recomputed stages (to round-off: the recorded stages are the code's, whose arguments it sums
+    # in its own order, and the two sum the extension's terms with different matrix products).
+    options = dict(rtol=1e-10, atol=1e-10, switching=lambda t, y: [], directions=[])
+    plain = integrate_segment(pendulum_rhs, 0.0, np.array([1.0, 0.0]), t_end, **options)
+    outputs = np.linspace(0.0, t_end, count)
+    seg = integrate_segment(pendulum_rhs, 0.0, np.array([1.0, 0.0]), t_end, outputs=outputs, **options)
+    assert np.array_equal(seg.t, outputs)
+    ends = plain.step_times
+    step = np.clip(np.searchsorted(ends, outputs, side="left") - 1, 0, ends.size - 2)
+    expected = np.empty_like(seg.y)
+    for k in np.unique(step):
+        ta, tb, ya, yb = ends[k], ends[k + 1], plain.step_ends[:, k], plain.step_ends[:, k + 1]
+        stages = step_stages(pendulum_rhs, ta, ya, tb - ta, pendulum_rhs(ta, ya), t_end=tb, y_end=yb)
+        at = step == k
+        expected[:, at] = interpolate(continuous_extension(pendulum_rhs, ta, ya, tb, yb, stages), ya,
+                                      (outputs[at] - ta) / (tb - ta))
+    on_ends = np.isin(outputs, ends)
+    expected[:, on_ends] = plain.step_ends[:, np.searchsorted(ends, outputs[on_ends])]
+    assert np.max(np.abs(seg.y - expected)) < 32 * np.finfo(float).eps * np.max(np.abs(expected))
+
+
 def test_the_counting_right_hand_side_records_its_calls_only_while_asked():
     calls = []
     counted, evaluations, record = _counting(oscillator, math.inf, [], calls)

@@ -35,8 +35,10 @@ control (:data:`STEP_CONTROL_BETA`).  The method is selected by
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -46,7 +48,7 @@ from ..methods import COMPILED_METHOD
 from . import dop853_code
 
 __all__ = ["METHOD", "ALLOWED_OPTIONS", "REJECTION_FACTOR", "STEP_CONTROL_BETA", "integrate_segment", "Segment", "step_stages",
-           "continuous_extension", "interpolate"]
+           "continuous_extension", "continuous_extensions", "interpolate"]
 
 #: The method name simulate() uses for this integrator.
 METHOD = COMPILED_METHOD
@@ -194,7 +196,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         watch.last_t, watch.last_y = t_end, np.array(y_code, dtype=float)
     if dense is not None:
         dense.finish(watch.last_y)          # an output at t_end beyond the last step end by round-off
-    return watch.segment(t_end, watch.last_y.copy(), None, evaluations(), y0.size)
+    return watch.segment(t_end, watch.last_y.copy(), None, evaluations, y0.size)
 
 
 def _with_path(error, watch, failed_at=None):
@@ -296,12 +298,16 @@ class _StepWatch:
                 return -1
         return 0
 
-    def segment(self, t_stop, y_stop, event, nfev, size):
+    def segment(self, t_stop, y_stop, event, evaluations, size):
         """The Segment that ends at ``(t_stop, y_stop)``: its outputs are the requested times, or the step ends
-        (solve_ivp's convention: with the switch, if one stopped it)."""
+        (solve_ivp's convention: with the switch, if one stopped it).  ``evaluations()`` is the count of
+        right-hand sides, read after the outputs are evaluated (they may call it)."""
         step_times, step_ends = np.array(self.end_times), np.array(self.ends).reshape(len(self.ends), size).T
         t, y = (step_times, step_ends) if self.dense is None else self.dense.outputs(size)
-        return Segment(t, y, t_stop, y_stop, event, nfev, self.last_step, self.steps, step_ends, step_times)
+        if self.failure:                     # a right-hand side of the outputs' extra stages failed
+            raise _with_path(self.failure[0], self, getattr(self.failure[0], "t", None))
+        return Segment(t, y, t_stop, y_stop, event, evaluations(), self.last_step, self.steps, step_ends,
+                       step_times)
 
 
 def _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failure, evaluations, size):
@@ -316,7 +322,7 @@ def _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failur
             raise failure[0]
     watch.ends.append(y_event)              # without dense outputs, the event also ends the outputs
     watch.end_times.append(t_event)
-    return watch.segment(t_event, y_event, event, evaluations(), size)
+    return watch.segment(t_event, y_event, event, evaluations, size)
 
 
 class _DenseOutputs:
@@ -327,13 +333,18 @@ class _DenseOutputs:
     accepted step from ``ta`` to ``tb``, its last twelve calls are the eleven
     stages at ``ta + c_i h`` (i = 2..12) and f at the new step end (the code's
     FSAL evaluation); the step's first stage is f at ``ta``, the previous step's
-    last call.  Calls of rejected steps come before them and are skipped.  For a
-    step that contains output times, the stages are checked (their times, and
-    the step end ``ya + h sum b_i k_i`` they give against the code's, to
-    round-off), the three extra stages of the extension are computed, and the
-    interpolant is evaluated at all the step's output times at once.  If the
-    check fails (a code that calls in another order) the step's stages are
-    recomputed from ``(ta, ya, h)`` and checked the same way.
+    last call.  Calls of rejected steps come before them and are skipped.  An output
+    time at a step end is the code's state there.  A step that holds output times
+    inside it is kept (its ends and its recorded stages: a few references, no
+    arithmetic), and when the segment ends :meth:`outputs` evaluates all of them
+    at once (:func:`_evaluate_held_steps`): the stages are checked (their times, and
+    the step end ``ya + h sum b_i k_i`` they give against the code's, to round-off),
+    the three extra stages of the extension are computed, and the interpolant is
+    evaluated at each step's output times.  A step whose check fails (a code that
+    calls in another order, a right-hand side that reuses its array) has its stages
+    recomputed from ``(ta, ya, h)`` and checked the same way.  Per step that holds
+    outputs this costs the three right-hand sides and a few Python operations; the
+    arithmetic is done in whole arrays, over all such steps or all outputs.
 
     The calls are recorded only where they may be needed: after an accepted step
     of size h ending at ``tb``, recording stays on for the next step if the next
@@ -373,9 +384,10 @@ class _DenseOutputs:
         self.calls = calls                  # (t, f) of the calls since the last accepted step
         self.f_start = None                 # f at the start of the current step
         self.crossing = None                # the calls and f_start of the step that crossed a switch
-        self.out_t, self.out_y = [], []
+        self.held = []                      # _HeldStep of the steps that hold output times inside them
+        self.known = []                     # (start, stop, y): the outputs start..stop-1 are the state y
         if self.times.size and self.times[0] == t0:
-            self._emit(self.times[:1], np.asarray(y0, dtype=float)[:, None].copy())
+            self._known(1, y0)
 
     def start(self, t0):
         """At the code's ``solout`` call at the start point: its first call was f at ``t0``."""
@@ -384,12 +396,11 @@ class _DenseOutputs:
         self.calls.clear()
 
     def step(self, ta, ya, tb, yb):
-        """An accepted step from ``(ta, ya)`` to ``(tb, yb)``: output the requested times in ``(ta, tb]``."""
+        """An accepted step from ``(ta, ya)`` to ``(tb, yb)``: the requested times in ``(ta, tb]`` are its."""
         calls, f_start = self.calls, self.f_start
         self.f_start = calls[-1][1] if calls and calls[-1][0] == tb else None
         if tb >= self.next_time:
-            stop = int(np.searchsorted(self.times, tb, side="right"))
-            self._interpolate(ta, ya, tb, yb, f_start, calls, self.times[self.next:stop])
+            self._hold(ta, ya, tb, yb, f_start, calls[-_STAGES:], int(np.searchsorted(self.times, tb, side="right")))
         calls.clear()
         self.record(self.next_time - tb <= _LOOKAHEAD * (tb - ta))
 
@@ -398,49 +409,128 @@ class _DenseOutputs:
         self.crossing = (list(self.calls[-_STAGES:]), self.f_start)
 
     def before_switch(self, ta, ya, tb, yb, t_event):
-        """Output the requested times in ``(ta, t_event)`` from the step that crossed, ``(ta, ya)`` to ``(tb, yb)``."""
+        """The requested times in ``(ta, t_event)`` are those of the step that crossed, ``(ta, ya)`` to ``(tb, yb)``."""
         stop = int(np.searchsorted(self.times, t_event, side="left"))
         if stop > self.next:
             calls, f_start = self.crossing
-            self._interpolate(ta, ya, tb, yb, f_start, calls, self.times[self.next:stop])
+            self._hold(ta, ya, tb, yb, f_start, calls, stop)
 
     def finish(self, y_end):
         """At t_end: any time left lies beyond the last step end by round-off, where the state is ``y_end``."""
-        rest = self.times[self.next:]
-        if rest.size:
-            self._emit(rest, np.repeat(np.asarray(y_end, dtype=float)[:, None], rest.size, axis=1))
+        if self.next < self.times.size:
+            self._known(self.times.size - self.next, y_end)
 
     def outputs(self, size):
-        if not self.out_t:
-            return np.empty(0), np.empty((size, 0))
-        return np.concatenate(self.out_t), np.concatenate(self.out_y, axis=1)
+        """``(times, states)``: the output times so far and the states there, shape (size, N)."""
+        count = self.next
+        states = np.empty((size, count))
+        for start, stop, y in self.known:
+            states[:, start:stop] = y[:, None]
+        if self.held:
+            self.record(False)
+            held, self.held = self.held, []
+            _evaluate_held_steps(self.rhs, held, self.times, states)
+        return self.times[:count].copy(), states
 
-    def _emit(self, times, states):
-        self.out_t.append(times)
-        self.out_y.append(states)
-        self.next += times.size
+    def _hold(self, ta, ya, tb, yb, f_start, calls, stop):
+        """The output times ``next .. stop-1`` lie in the step ``(ta, ya)`` to ``(tb, yb)``: keep it."""
+        start, inside = self.next, stop if self.times[stop - 1] != tb else stop - 1
+        if inside > start:
+            self.held.append(_HeldStep(ta, ya, tb, yb, f_start, calls, start, inside))
+        self.next = inside
+        if stop > inside:                   # an output at the step end: the code's own state
+            self._known(1, yb)
+
+    def _known(self, count, y):
+        self.known.append((self.next, self.next + count, np.asarray(y, dtype=float)))
+        self.next += count
         self.next_time = float(self.times[self.next]) if self.next < self.times.size else math.inf
 
-    def _interpolate(self, ta, ya, tb, yb, f_start, calls, times):
-        if times[0] == tb:                  # only the step end: the code's own state, no extension needed
-            self._emit(times, yb[:, None].copy())
-            return
-        h = tb - ta
-        stages = _recorded_stages(calls, f_start, ta, h, tb, ya.size)
-        if stages is None or not _rebuilds_step_end(ya, h, stages, yb, tb):
-            # f at ta too: a recorded f may be an array that the rhs reuses
-            stages = step_stages(self.rhs, ta, ya, h, self.rhs(ta, ya), t_end=tb, y_end=yb)
-            if not _rebuilds_step_end(ya, h, stages, yb, tb):
-                error = IntegrationError(
-                    f"ode.dop853 failed at t = {ta:.6g} s: the stages of the step to t = {tb:.6g} s, recomputed, "
-                    "do not give the compiled code's step end, so no output inside it can be interpolated; "
-                    "use a solve_ivp method, or no t_eval")
-                error.t = ta
-                raise error
-        states = interpolate(continuous_extension(self.rhs, ta, ya, tb, yb, stages), ya, (times - ta) / h)
-        if times[-1] == tb:                 # a step end: the code's own state
-            states[:, -1] = yb
-        self._emit(times, states)
+
+class _HeldStep(NamedTuple):
+    """An accepted step that holds output times: its ends, its recorded calls, which outputs it holds."""
+
+    ta: float
+    ya: np.ndarray
+    tb: float
+    yb: np.ndarray
+    f_start: object          # f at ta (recorded), or None
+    calls: list              # its last recorded calls (t, f): the stages 2..12 and f at tb, if all were recorded
+    start: int               # the outputs start .. stop-1 lie inside it
+    stop: int
+
+
+def _evaluate_held_steps(rhs, held, times, states):
+    """Write into ``states`` the outputs inside the ``held`` steps (:class:`_HeldStep`), all at once.
+
+    Their stages come from the recorded calls where those pass the check of
+    :func:`_rebuilds_step_ends`, else are recomputed (:func:`step_stages`) and checked
+    again; then :func:`continuous_extensions` and one product per step with the basis of
+    :func:`_basis` at all outputs.
+    """
+    count, size = len(held), states.shape[0]
+    ta, tb, h, ya, yb = _held_ends(held)
+    K = np.empty((_STAGES + 4, count, size))               # stage, step, component
+    K[:_STAGES + 1] = _recorded_stages(held, size).transpose(1, 0, 2)
+    first_call = np.array([step.calls[0][0] if step.calls else math.nan for step in held])
+    last_call = np.array([step.calls[-1][0] if step.calls else math.nan for step in held])
+    checked = ((np.abs(first_call - (ta + _C[1] * h)) <= 1e-9 * np.abs(h) + 1e-15 * np.maximum(np.abs(ta), np.abs(tb)))
+               & (last_call == tb) & _rebuilds_step_ends(ya, h, K, yb, tb))
+    for k in np.flatnonzero(~checked).tolist():
+        # f at ta too: a recorded f may be an array that the rhs reuses
+        K[:, k] = step_stages(rhs, ta[k], ya[k], h[k], rhs(ta[k], ya[k]), t_end=tb[k], y_end=yb[k])
+        if not _rebuilds_step_ends(ya[k:k + 1], h[k:k + 1], K[:, k:k + 1], yb[k:k + 1], tb[k:k + 1])[0]:
+            error = IntegrationError(
+                f"ode.dop853 failed at t = {ta[k]:.6g} s: the stages of the step to t = {tb[k]:.6g} s, recomputed, "
+                "do not give the compiled code's step end, so no output inside it can be interpolated; "
+                "use a solve_ivp method, or no t_eval")
+            error.t = float(ta[k])
+            raise error
+    # [F; ya] of every step, as (step, component, 8): one product with the basis per step
+    coefficients = np.concatenate((continuous_extensions(rhs, ta, ya, tb, yb, K), ya[None]), axis=0)
+    coefficients = coefficients.transpose(1, 2, 0).copy()
+    counts = [step.stop - step.start for step in held]
+    x = np.concatenate([times[step.start:step.stop] for step in held])       # the held outputs, in order
+    x -= np.repeat(ta, counts)
+    x /= np.repeat(h, counts)                                                # fractions of their steps
+    # The basis a group of steps at a time: a few numpy calls per group, and no basis of 8 rows by
+    # all outputs at once (a 10 000-output run would allocate, and fault in, 640 kB for it).
+    first = group = 0
+    for k, step in enumerate(held):
+        if k == group:                      # a new group: the steps from k holding <= _GROUP_OUTPUTS outputs
+            end, total = k, 0
+            while end < count and (end == k or total + counts[end] <= _GROUP_OUTPUTS):
+                total += counts[end]
+                end += 1
+            basis, group, offset = _basis(x[first:first + total]), end, first
+        last = first + counts[k]
+        np.matmul(coefficients[k], basis[:, first - offset:last - offset], out=states[:, step.start:step.stop])
+        first = last
+
+
+def _held_ends(held):
+    """``(ta, tb, h, ya, yb)`` of the held steps: arrays (S,) and (S, n)."""
+    ta = np.array([step.ta for step in held])
+    tb = np.array([step.tb for step in held])
+    return ta, tb, tb - ta, np.array([step.ya for step in held]), np.array([step.yb for step in held])
+
+
+def _recorded_stages(held, size):
+    """The recorded f at ta and calls of every held step, as an array (S, 13, n): its 13 stages if the
+    calls are all there (checked by the caller), zeros for a step whose calls are not (so that its check fails)."""
+    missing = [0.0] * ((_STAGES + 1) * size)
+
+    def values():
+        for step in held:
+            if step.f_start is None or len(step.calls) != _STAGES:
+                yield missing
+            else:
+                yield step.f_start
+                for _, f in step.calls:
+                    yield f
+
+    flat = np.fromiter(itertools.chain.from_iterable(values()), dtype=float, count=len(held) * (_STAGES + 1) * size)
+    return flat.reshape(len(held), _STAGES + 1, size)
 
 
 #: DOP853's coefficients (Hairer's, as scipy's DOP853 carries them): the 12 stages of the step,
@@ -462,6 +552,10 @@ _EPS = np.finfo(float).eps
 #: margin); a step that grew more than that would only have its stages recomputed (13 more right-hand
 #: sides), never a wrong output.
 _LOOKAHEAD = 1.2 * (1.01 * dop853_code.IFACTOR) * (1.0 + 1.01 * dop853_code.IFACTOR)
+#: Outputs whose basis (:func:`_basis`, 8 rows) is computed at once: 8 x 2000 floats, 125 kB, under
+#: glibc's threshold (128 kB) for allocating with mmap, whose pages are faulted in anew every time
+#: (measured here: 1.35 µs per 4 kB page; a basis of 10 000 outputs at once cost 0.2 ms in faults).
+_GROUP_OUTPUTS = 2000
 #: A step end rebuilt from the stages may differ from the code's by this many units of round-off
 #: of the sum ``ya + h sum b_i k_i`` (the code sums in another order, and its h differs from
 #: ``tb - ta`` by round-off in tb).
@@ -469,7 +563,7 @@ _ROUND_OFF_UNITS = 64.0
 
 
 def _extension_form():
-    """``(F_of_K, F_of_Y)``: Hairer's ``contd8`` coefficients as ``F = h F_of_K K + F_of_Y [ya, yb]``.
+    """Hairer's ``contd8`` coefficients as ``F = h F_of_K K + (the terms in yb - ya)``: ``F_of_K`` (7, 16).
 
     ``F0 = yb - ya``, ``F1 = h k_1 - F0``, ``F2 = 2 F0 - h (k_1 + k_13)``, ``F3..F6 = h D K``.
     """
@@ -477,12 +571,10 @@ def _extension_form():
     F_of_K[1, 0] = 1.0
     F_of_K[2, [0, _STAGES]] = -1.0
     F_of_K[3:] = _D
-    F_of_Y = np.zeros((7, 2))
-    F_of_Y[:3] = [[-1.0, 1.0], [1.0, -1.0], [-2.0, 2.0]]
-    return F_of_K, F_of_Y
+    return F_of_K
 
 
-_F_OF_K, _F_OF_Y = _extension_form()
+_F_OF_K = _extension_form()
 
 
 def step_stages(rhs, ta, ya, h, f_start, t_end=None, y_end=None):
@@ -520,7 +612,7 @@ def continuous_extension(rhs, ta, ya, tb, yb, stages):
     ``stages`` (:func:`step_stages`), into their rows 13 to 15; the interpolant
     is :func:`interpolate`.
     It is of order 7, and it passes through ``ya`` and ``yb`` with the slopes
-    f(ta, ya) and f(tb, yb).
+    f(ta, ya) and f(tb, yb).  One step of :func:`continuous_extensions`.
 
     Parameters
     ----------
@@ -530,53 +622,62 @@ def continuous_extension(rhs, ta, ya, tb, yb, stages):
     ya, yb : ndarray, shape (n,)
     stages : ndarray, shape (16, n)
     """
+    K = stages[:, None]
+    return continuous_extensions(rhs, np.array([ta]), np.asarray(ya, dtype=float)[None], np.array([tb]),
+                                 np.asarray(yb, dtype=float)[None], K)[:, 0]
+
+
+def continuous_extensions(rhs, ta, ya, tb, yb, stages):
+    """:func:`continuous_extension` of S steps at once: ``F`` of shape (7, S, n).
+
+    ``ta``, ``tb`` of shape (S,), ``ya``, ``yb`` of shape (S, n), ``stages`` of shape
+    (16, S, n) (rows 13 to 15 are filled here: three right-hand sides per step).
+    ``F0 = yb - ya``, ``F1 = h k_1 - F0``, ``F2 = 2 F0 - h (k_1 + k_13)``, ``F3..F6 = h D K``.
+    """
     h = tb - ta
     K = stages
-    for s, a, c in _EXTRA_STAGES:
-        K[s] = rhs(ta + c * h, ya + (h * a) @ K[:s])
-    return h * (_F_OF_K @ K) + _F_OF_Y @ np.array((ya, yb))
+    for s, a, c in _EXTRA_STAGES:                       # K[:s] as stage x (step, component): one product
+        arguments = ya + h[:, None] * (a @ K[:s].reshape(s, -1)).reshape(ya.shape)
+        row = K[s]
+        for k, t in enumerate((ta + c * h).tolist()):
+            row[k] = rhs(t, arguments[k])
+    F = (_F_OF_K @ K.reshape(K.shape[0], -1)).reshape(7, *ya.shape) * h[:, None]
+    change = yb - ya
+    F[0] += change
+    F[1] -= change
+    F[2] += 2.0 * change
+    return F
+
+
+def _basis(x):
+    """The products ``b_j(x) = x, x (1 - x), x^2 (1 - x), ...`` (rows 0 to 6) and a row of ones: (8, m).
+
+    ``y(x) = ya + x (F0 + (1 - x) (F1 + x (F2 + (1 - x) (F3 + x (F4 + (1 - x) (F5 + x F6))))))``
+    is ``[F; ya]^T`` times this, summed as ``ya + sum_j F_j b_j(x)`` (no cancellation in the
+    products: the same round-off as the nested form, all outputs at once).
+    """
+    products = np.empty((8, x.size))
+    rest = 1.0 - x
+    products[0] = x
+    for j in range(1, 7):
+        np.multiply(products[j - 1], rest if j % 2 else x, out=products[j])
+    products[7] = 1.0
+    return products
 
 
 def interpolate(F, ya, x):
-    """The continuous extension at fractions ``x`` of the step: ndarray (n, m).
-
-    ``y(x) = ya + x (F0 + (1 - x) (F1 + x (F2 + (1 - x) (F3 + x (F4 + (1 - x) (F5 + x F6))))))``,
-    summed as ``ya + sum_j F_j b_j(x)`` with the products ``b_j = x, x (1 - x), x^2 (1 - x), ...``
-    (no cancellation in them: the same round-off as the nested form, all outputs at once).
-    """
-    x = np.asarray(x, dtype=float)
-    products = np.empty((F.shape[0], x.size))
-    if x.size < 32:                         # a few outputs: one cumprod costs fewer numpy calls
-        products[0::2] = x
-        products[1::2] = 1.0 - x
-        return F.T @ np.cumprod(products, axis=0) + ya[:, None]
-    rest = 1.0 - x                          # many: the same running product row by row (cumprod down
-    products[0] = x                         # axis 0 of a long array is four times slower)
-    for j in range(1, F.shape[0]):
-        np.multiply(products[j - 1], rest if j % 2 else x, out=products[j])
-    return F.T @ products + ya[:, None]
+    """The continuous extension (coefficients ``F`` of :func:`continuous_extension`) at fractions ``x`` of
+    the step: ndarray (n, m)."""
+    return np.vstack((F, ya)).T @ _basis(np.atleast_1d(np.asarray(x, dtype=float)))
 
 
-def _recorded_stages(calls, f_start, ta, h, tb, size):
-    """The 13 stages of the step from ``ta`` to ``tb`` among the recorded ``calls``, or None if the last
-    twelve calls do not run from ``ta + c_2 h`` to ``tb``."""
-    if f_start is None or len(calls) < _STAGES:
-        return None
-    last = calls[-_STAGES:]
-    if last[-1][0] != tb or abs(last[0][0] - (ta + _C[1] * h)) > 1e-9 * abs(h) + 1e-15 * max(abs(ta), abs(tb)):
-        return None
-    K = np.empty((_STAGES + 4, size))
-    K[0] = f_start
-    K[1:_STAGES + 1] = [f for _, f in last]
-    return K
-
-
-def _rebuilds_step_end(ya, h, stages, yb, tb):
-    """Whether ``ya + h sum b_i k_i`` is the code's step end ``yb`` to round-off."""
-    K = stages[:_STAGES]
+def _rebuilds_step_ends(ya, h, stages, yb, tb):
+    """Whether ``ya + h sum b_i k_i`` is the code's step end ``yb`` to round-off, for S steps at once:
+    boolean array (S,) (``ya``, ``yb`` of shape (S, n), ``h``, ``tb`` of shape (S,), ``stages`` (16, S, n))."""
+    K = stages[:_STAGES].reshape(_STAGES, -1)
     # |h sum b_i k_i - (yb - ya)| against the round-off of the sum and of h (up to |tb| eps |sum b_i k_i|)
-    scale = np.abs(ya) + (abs(h) + abs(tb)) * (_ABS_B @ np.abs(K))
-    return bool((np.abs(ya + h * (_B @ K) - yb) <= _ROUND_OFF_UNITS * _EPS * scale).all())
+    scale = np.abs(ya) + (np.abs(h) + np.abs(tb))[:, None] * (_ABS_B @ np.abs(K)).reshape(ya.shape)
+    return (np.abs(ya + h[:, None] * (_B @ K).reshape(ya.shape) - yb) <= _ROUND_OFF_UNITS * _EPS * scale).all(axis=1)
 
 
 def _locate(rhs, switching, start, hit, directions, rtol, atol, failure):
