@@ -105,3 +105,34 @@ def test_absurd_magnitudes_are_refused_before_any_work(capsys, option, value, li
     err = capsys.readouterr().err
     assert status == 2
     assert err == f"closedloop: error: {option[2:]}: must be a finite number from {limit}, got {float(value):g}\n"
+
+
+def test_the_residuals_at_the_outputs_are_computed_when_first_read_and_are_those_of_the_states(system,
+                                                                                               monkeypatch):
+    """simulate leaves |f| and |f'| at the outputs to the first reader (as lambda, only when asked for);
+    they are then those of the states returned, checked one column at a time with (6) and (9)."""
+    calls = []
+    many = system.constraint_errors
+
+    def counted(s, sd):
+        calls.append(s.shape[1])
+        return many(s, sd)
+
+    monkeypatch.setattr(system, "constraint_errors", counted)
+    result = simulate(system, start(system, 2), 2.0, formulation=formulation_from_name("closed-form"),
+                      method="ode.dop853", rtol=1e-6, atol=1e-6, t_eval=np.linspace(0.0, 2.0, 201))
+    assert calls == []                                          # the run itself computed none
+    f_norm, fd_norm = result.constraint_error, result.velocity_constraint_error
+    assert calls == [201]                                       # both at once, at the first read, once
+    assert result.velocity_constraint_error is fd_norm and calls == [201]
+    for k in range(0, 201, 20):
+        f, Phi = system.constraints_and_jacobian(result.s[:, k])
+        # to the round-off of the sums, whose terms (lengths, and lengths times speeds) are far larger
+        assert f_norm[k] == pytest.approx(np.linalg.norm(f), rel=0, abs=16 * np.finfo(float).eps)
+        scale = np.max(np.abs(Phi) @ np.abs(result.sd[:, k]))
+        assert fd_norm[k] == pytest.approx(np.linalg.norm(Phi @ result.sd[:, k]), rel=0,
+                                           abs=16 * np.finfo(float).eps * scale)
+        assert fd_norm[k] > 1e3 * np.finfo(float).eps * scale or k == 0      # not round-off itself
+    assert result.max_constraint_error == max(float(f_norm.max()), result.step_constraint_error)
+    assert result.warnings == []                                # 1e-6: drift far below sqrt(tol)
+    assert 1e-12 < result.max_constraint_error < 1e-4

@@ -24,6 +24,31 @@ class SwitchEvent:
     action: str
 
 
+class _Residuals:
+    """A residual field of :class:`SimulationResult`: the array given, or, given None, computed from the
+    result's ``s`` and ``sd`` when first read (by its ``residuals``, both residuals at once) and kept.
+
+    A descriptor-typed dataclass field: the dataclass's ``__init__`` sets it through ``__set__``,
+    and it has no default.
+    """
+
+    def __set_name__(self, owner, name):
+        self.name, self.slot = name, "_" + name
+
+    def __get__(self, result, owner=None):
+        if result is None:
+            raise AttributeError(self.name)         # no default: the field is required
+        value = result.__dict__[self.slot]
+        if value is None and result.residuals is not None:
+            result.__dict__["_constraint_error"], result.__dict__["_velocity_constraint_error"] = (
+                result.residuals(result.s, result.sd))
+            value = result.__dict__[self.slot]
+        return value
+
+    def __set__(self, result, value):
+        result.__dict__[self.slot] = value
+
+
 @dataclass
 class SimulationResult:
     """What :func:`simulate` computed.
@@ -35,15 +60,20 @@ class SimulationResult:
     s, sd : ndarray, shape (n, N)
         Coordinates and velocities (rows in the order of the model's coordinates).
     constraint_error : ndarray, shape (N,)
-        ``|f| = sqrt(sum f_i^2)`` of (32).
+        ``|f| = sqrt(sum f_i^2)`` of (32) at the outputs.
     velocity_constraint_error : ndarray, shape (N,)
-        ``|f'| = |Phi_s s'|`` of (9).
+        ``|f'| = |Phi_s s'|`` of (9) at the outputs.  :func:`simulate` leaves both
+        to be computed from ``s`` and ``sd`` when one of them is first read (by
+        ``residuals``, the system's ``constraint_errors``): like lambda, the residuals
+        of 10 000 outputs cost only the runs that use them (they cost about a third
+        of a one-second run's integration).
     multipliers : ndarray, shape (r, N), or None
         lambda of (5), only when asked for.
     nfev : int
         Right-hand-side evaluations, summed over all segments.
     cpu_time : float
-        Process time of the run in seconds (integration, switching, output).
+        Process time of the run in seconds (integration, switching, outputs; not the
+        residuals at the outputs, computed when first read).
     switch_events : list of SwitchEvent
     sticking_intervals : list of (float, float)
         Time intervals spent stuck (see :mod:`closedloop.simulation.switching`).
@@ -68,8 +98,12 @@ class SimulationResult:
     step_constraint_error, step_velocity_constraint_error : float
         The largest |f| and |f'| at the integrator's step ends, over the whole
         run (0 when the change-point watch is off, ``branch_limit=math.inf``).
+    residuals : callable or None
+        ``residuals(s, sd) -> (|f|, |f'|)`` at every column, for the residual
+        fields given as None.
     warnings : list of str
-        Why this result should not be trusted (see :func:`residual_warnings`);
+        Why this result should not be trusted (see :func:`residual_warnings`, applied
+        to the largest residuals, at the outputs and the step ends);
         empty for a result whose own residuals are within the run's bound.
         The command line prints them, and :func:`closedloop.slider_crank.classify_motion`
         refuses a result that has any.
@@ -78,8 +112,8 @@ class SimulationResult:
     t: np.ndarray
     s: np.ndarray
     sd: np.ndarray
-    constraint_error: np.ndarray
-    velocity_constraint_error: np.ndarray
+    constraint_error: np.ndarray = _Residuals()
+    velocity_constraint_error: np.ndarray = _Residuals()
     multipliers: np.ndarray | None
     nfev: int
     cpu_time: float
@@ -97,7 +131,14 @@ class SimulationResult:
     work: np.ndarray | None = None
     step_constraint_error: float = 0.0
     step_velocity_constraint_error: float = 0.0
-    warnings: list = field(default_factory=list)
+    residuals: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def warnings(self) -> list:
+        """Why this result should not be trusted: :func:`residual_warnings` of its largest residuals."""
+        speed = float(np.max(np.abs(self.sd), initial=0.0))
+        return residual_warnings(self.max_constraint_error, self.max_velocity_constraint_error, speed, self.rtol,
+                                 self.atol)
 
     @property
     def n_steps(self) -> int:
@@ -180,12 +221,12 @@ class Outputs:
         (a Python object per point: built only when asked for, by the multipliers).
         """
         pieces = self.pieces
-        if len(pieces) == 1:                 # one piece: its arrays, not a copy
-            t, s, sd = pieces[0].t, pieces[0].s, pieces[0].sd
-        else:
-            t = np.concatenate([p.t for p in pieces])
-            s = np.concatenate([p.s for p in pieces], axis=1)
-            sd = np.concatenate([p.sd for p in pieces], axis=1)
+        if len(pieces) == 1:                 # one piece: its arrays, not a copy, and its times increase
+            piece = pieces[0]
+            return piece.t, piece.s, piece.sd, lambda: [(piece.mode, piece.stuck)] * piece.t.size, piece.work
+        t = np.concatenate([p.t for p in pieces])
+        s = np.concatenate([p.s for p in pieces], axis=1)
+        sd = np.concatenate([p.sd for p in pieces], axis=1)
         keep = np.concatenate(([True], np.diff(t) > 0))
 
         def modes():
