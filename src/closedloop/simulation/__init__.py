@@ -144,16 +144,21 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     RK45, RK23, Radau, BDF and LSODA and 1.25 times that without a grid for
     DOP853 and ode.dop853 (the same with 50 000 outputs).  Against a tight
     reference integrated from each step's start, the largest error of the
-    outputs was, in units of ``atol + rtol |y|``: RK45 0.67 (0.06 at its step
-    ends), RK23 7.4 (7.4), DOP853 0.10 (0.001), Radau 0.57 (0.002), BDF 0.79
-    (0.78), LSODA 1.6 (1.6), ode.dop853 0.11 (0.002).  Process time is
-    another matter: each output costs some (interpolation, unpacking, constraint
-    errors), and with DOP853 and ode.dop853 so does each step that holds one.
-    ode.dop853 pays about what DOP853 pays, which is a larger share of its
-    cheaper run: with 10 000 outputs a run took 2.3 times as long as without
-    them with ode.dop853 (2.3 times over 20 s too, where nearly every step
-    holds outputs), 2.1 times with DOP853 (1.5 over 20 s), and 4 times with
-    LSODA.
+    outputs was, in units of ``atol + rtol |y|``: RK45 0.68 (0.68 at its step
+    ends), RK23 156 (155), DOP853 0.093 (0.004), Radau 0.57 (0.013), BDF 6.8
+    (6.8), LSODA 1.3 (1.3), ode.dop853 0.051 (0.002): the outputs are within
+    the error the steps already carry, and the low-order and multistep
+    methods' global errors are far above their tolerance anyway.  Process time is
+    another matter: each output costs some (interpolation, unpacking; the
+    residuals |f| and |f'| at the outputs only when first read, see
+    :class:`SimulationResult`), and with DOP853 and ode.dop853 so does each step
+    that holds one.  With 10 000 outputs a run took, against the same run
+    without them: ode.dop853 1.70 times as long (1.69 over 20 s, where nearly
+    every step holds outputs), DOP853 1.89 (1.44 over 20 s), RK45 1.44, RK23
+    1.47, Radau 1.14, BDF 1.25 and LSODA 3.84 (1.50 over 20 s).  ode.dop853's
+    extra is the three right-hand sides per step (a quarter of the run's) and,
+    about as much again, the Python work per step and per output on a run that
+    is itself short (1 ms over 1 s).
 
     The fixed-step :func:`closedloop.fixed_step.rk4` is not one of these
     methods and takes no output times: its outputs are its steps.
