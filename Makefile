@@ -49,6 +49,8 @@ EDITION_BUILD = mkdir -p _build/$(1) && \
 
 book: $(STAMP)
 	$(FRESH_CACHE)
+	@# the pages the execution cache lacks, executed a core each (the build then executes none)
+	$(BIN)/python book/_ext/execute_pages.py
 	$(BIN)/jupyter-book build . -n -W --keep-going
 	@# each translation: the same sources and execution cache (nothing runs twice), its own catalogue
 	@for language in $(LANGUAGES); do \
@@ -74,6 +76,7 @@ translations: $(STAMP)
 # (book/print/print_pdf.py; poppler-utils' pdfinfo finds the contents' page numbers).
 pdf: $(STAMP) pdf-tools
 	$(FRESH_CACHE)
+	$(BIN)/python book/_ext/execute_pages.py
 	$(BIN)/jupyter-book build . --builder singlehtml -n -W --keep-going
 	@echo "$(SOURCE_HASH)" > _build/.source-hash && echo "$(EXTENSIONS_HASH)" > _build/.extensions-hash
 	$(BIN)/python book/print/print_pdf.py _build/singlehtml _build/pdf/closedloop.pdf

@@ -1,0 +1,121 @@
+"""Execute the book's notebook pages that the execution cache lacks, as many at a time as there are cores.
+
+Jupyter Book 1 (myst-nb's ``cache`` mode) executes a page's notebook when Sphinx reads the page,
+one page after another, so ``make book`` waited for the sum of all the pages' executions (about
+150 s on this 2-core machine) with one core idle.  This script runs before the build and fills the
+same execution cache with every page the cache lacks, executed in parallel; the build then finds
+each page in the cache (its log says "Using cached notebook") and executes nothing.
+
+It does what myst-nb does for one page, so that the build's lookup matches what it stores:
+
+- the page is read by myst-nb's MyST reader (``read_myst_markdown_notebook``), whose notebook the
+  cache hashes (its code cells, their metadata, the kernelspec);
+- it is executed as jupyter-cache's ``single_nb_execution`` executes it (nbclient, in the page's
+  folder, with the ``execute.timeout`` of ``_config.yml``), stopping at the first error;
+- it is cached with ``cache_notebook_bundle``, as myst-nb caches it.
+
+A page whose execution fails is not cached: the build executes it again and reports the error as it
+always has (``execute.raise_on_error``), so this script cannot hide a failure.  Each kernel talks to
+its client through Unix sockets in a folder of its own: kernels started at the same moment over TCP
+can be given the same port, and one of them dies.
+
+    .venv/bin/python book/_ext/execute_pages.py        # make book and make pdf run it
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def notebook_pages():
+    """The book's notebook pages (MyST Markdown with a jupytext header), in table-of-contents order."""
+    toc = yaml.safe_load((ROOT / "_toc.yml").read_text())
+    files = [toc["root"]] + [chapter["file"] for part in toc.get("parts", []) for chapter in part["chapters"]]
+    paths = [ROOT / f"{name}.md" for name in files]
+    return [path for path in paths if path.exists() and path.read_text().startswith("---\njupytext:")]
+
+
+def read_page(path):
+    """The page's notebook as myst-nb reads it for the build."""
+    from myst_nb.core.read import read_myst_markdown_notebook
+    from myst_parser.config.main import MdParserConfig
+
+    return read_myst_markdown_notebook(path.read_text(), config=MdParserConfig(), add_source_map=True,
+                                       path=str(path))
+
+
+def execute_page(path, timeout):
+    """``(path, executed notebook or None, seconds, error text or None)`` of one page.
+
+    As jupyter-cache's ``single_nb_execution`` (``nbclient.execute`` in the page's folder, the
+    notebook's own ``execution`` metadata overriding the timeout), with a kernel of our own on Unix
+    sockets, which the client shuts down at the end (``cleanup_kc``).
+    """
+    from jupyter_client.manager import AsyncKernelManager
+    from nbclient import NotebookClient
+    from nbclient.exceptions import CellExecutionError, CellTimeoutError
+
+    notebook = read_page(path)
+    options = notebook.metadata.get("execution", {})
+    with tempfile.TemporaryDirectory(prefix="closedloop-kernel-") as folder:
+        kernel = AsyncKernelManager(kernel_name=notebook.metadata.kernelspec.name, transport="ipc",
+                                    connection_file=os.path.join(folder, "kernel.json"))
+        client = NotebookClient(notebook, timeout=options.get("timeout", timeout),
+                                allow_errors=options.get("allow_errors", False),
+                                resources={"metadata": {"path": str(path.parent)}}, km=kernel)
+        start = time.perf_counter()
+        try:
+            client.execute(cleanup_kc=True)
+        except (CellExecutionError, CellTimeoutError):
+            return path, None, time.perf_counter() - start, traceback.format_exc()
+    return path, notebook, time.perf_counter() - start, None
+
+
+def main():
+    from jupyter_cache import get_cache
+    from jupyter_cache.base import CacheBundleIn
+
+    settings = yaml.safe_load((ROOT / "_config.yml").read_text())["execute"]
+    cache = get_cache(str(ROOT / settings["cache"]))
+    missing = []
+    for path in notebook_pages():
+        try:
+            cache.match_cache_notebook(read_page(path))
+        except KeyError:
+            missing.append(path)
+    if not missing:
+        print("execute_pages: every page is in the execution cache")
+        return 0
+    workers = max(1, min(len(missing), os.cpu_count() or 1))
+    print(f"execute_pages: {len(missing)} pages to execute, {workers} at a time", flush=True)
+    missing.sort(key=lambda path: path.stat().st_size, reverse=True)     # the long pages first
+    start = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        futures = [pool.submit(execute_page, path, settings.get("timeout", 30)) for path in missing]
+        for future in as_completed(futures):
+            path, notebook, seconds, error = future.result()
+            name = path.relative_to(ROOT)
+            if notebook is None:
+                last = error.strip().splitlines()[-1] if error else "no reason given"
+                print(f"  {name}: failed after {seconds:.1f} s ({last}); the build executes it again", flush=True)
+                continue
+            record = cache.add_nb_to_project(str(path), read_data={"type": "plugin", "name": "myst_nb_md"})
+            cache.cache_notebook_bundle(CacheBundleIn(notebook, record.uri, data={"execution_seconds": seconds}),
+                                        check_validity=False, overwrite=True)
+            print(f"  {name}: {seconds:.1f} s", flush=True)
+    print(f"execute_pages: {time.perf_counter() - start:.0f} s wall for {len(missing)} pages", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
