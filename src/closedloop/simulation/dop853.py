@@ -471,10 +471,12 @@ def _evaluate_held_steps(rhs, held, times, states):
     count, size = len(held), states.shape[0]
     ta, tb, h, ya, yb = _held_ends(held)
     K = np.empty((_STAGES + 4, count, size))               # stage, step, component
-    K[:_STAGES + 1] = _recorded_stages(held, size).transpose(1, 0, 2)
+    complete = np.array([step.f_start is not None and len(step.calls) == _STAGES for step in held])
+    K[:_STAGES + 1] = _recorded_stages(held, complete, size).transpose(1, 0, 2)
     first_call = np.array([step.calls[0][0] if step.calls else math.nan for step in held])
     last_call = np.array([step.calls[-1][0] if step.calls else math.nan for step in held])
-    checked = ((np.abs(first_call - (ta + _C[1] * h)) <= 1e-9 * np.abs(h) + 1e-15 * np.maximum(np.abs(ta), np.abs(tb)))
+    checked = (complete
+               & (np.abs(first_call - (ta + _C[1] * h)) <= 1e-9 * np.abs(h) + 1e-15 * np.maximum(np.abs(ta), np.abs(tb)))
                & (last_call == tb) & _rebuilds_step_ends(ya, h, K, yb, tb))
     for k in np.flatnonzero(~checked).tolist():
         # f at ta too: a recorded f may be an array that the rhs reuses
@@ -493,19 +495,21 @@ def _evaluate_held_steps(rhs, held, times, states):
     x = np.concatenate([times[step.start:step.stop] for step in held])       # the held outputs, in order
     x -= np.repeat(ta, counts)
     x /= np.repeat(h, counts)                                                # fractions of their steps
-    # The basis a group of steps at a time: a few numpy calls per group, and no basis of 8 rows by
-    # all outputs at once (a 10 000-output run would allocate, and fault in, 640 kB for it).
-    first = group = 0
-    for k, step in enumerate(held):
-        if k == group:                      # a new group: the steps from k holding <= _GROUP_OUTPUTS outputs
-            end, total = k, 0
-            while end < count and (end == k or total + counts[end] <= _GROUP_OUTPUTS):
-                total += counts[end]
-                end += 1
-            basis, group, offset = _basis(x[first:first + total]), end, first
-        last = first + counts[k]
-        np.matmul(coefficients[k], basis[:, first - offset:last - offset], out=states[:, step.start:step.stop])
-        first = last
+    # The basis a group of steps at a time (the steps from k on that hold <= _GROUP_OUTPUTS outputs, or
+    # one step): a few numpy calls per group, and no basis of 8 rows by all outputs at once (a 10 000-output
+    # run would allocate, and fault in, 640 kB for it).
+    k = first = 0
+    while k < count:
+        end, total = k + 1, counts[k]
+        while end < count and total + counts[end] <= _GROUP_OUTPUTS:
+            total += counts[end]
+            end += 1
+        basis, column = _basis(x[first:first + total]), 0
+        for j in range(k, end):
+            step = held[j]
+            np.matmul(coefficients[j], basis[:, column:column + counts[j]], out=states[:, step.start:step.stop])
+            column += counts[j]
+        k, first = end, first + total
 
 
 def _held_ends(held):
@@ -515,14 +519,15 @@ def _held_ends(held):
     return ta, tb, tb - ta, np.array([step.ya for step in held]), np.array([step.yb for step in held])
 
 
-def _recorded_stages(held, size):
-    """The recorded f at ta and calls of every held step, as an array (S, 13, n): its 13 stages if the
-    calls are all there (checked by the caller), zeros for a step whose calls are not (so that its check fails)."""
+def _recorded_stages(held, complete, size):
+    """The recorded f at ta and calls of every held step, as an array (S, 13, n): its 13 stages where
+    ``complete`` (boolean, per step: f at ta and twelve calls were recorded), zeros where not (the caller
+    recomputes those steps)."""
     missing = [0.0] * ((_STAGES + 1) * size)
 
     def values():
-        for step in held:
-            if step.f_start is None or len(step.calls) != _STAGES:
+        for step, whole in zip(held, complete.tolist()):
+            if not whole:
                 yield missing
             else:
                 yield step.f_start
