@@ -49,17 +49,16 @@ SCRIPTS = {
 
 
 def notebook_pages():
-    """The book's notebook pages in table-of-contents order (paths relative to ROOT)."""
-    import yaml
+    """The book's notebook pages in table-of-contents order (paths relative to ROOT), as make book finds them."""
+    return [path.relative_to(ROOT) for path in _execute_pages().notebook_pages()]
 
-    toc = yaml.safe_load((ROOT / "_toc.yml").read_text())
-    files = [toc["root"]] + [chapter["file"] for part in toc.get("parts", []) for chapter in part["chapters"]]
-    pages = []
-    for name in files:
-        path = ROOT / f"{name}.md"
-        if path.exists() and path.read_text().startswith("---\njupytext:"):
-            pages.append(path.relative_to(ROOT))
-    return pages
+
+def _execute_pages():
+    """``book/_ext/execute_pages.py``, which make book runs before the build."""
+    sys.path.insert(0, str(ROOT / "book" / "_ext"))
+    import execute_pages
+
+    return execute_pages
 
 
 def time_notebook(path):
@@ -88,10 +87,9 @@ def notebooks():
     slowest = max(times, key=times.get)
     print(f"  one after another: {total:.0f} s over {len(times)} notebooks; slowest {times[slowest]:.1f} s "
           f"({slowest})")
-    sys.path.insert(0, str(ROOT / "book" / "_ext"))
-    import execute_pages
     from concurrent.futures import ProcessPoolExecutor
 
+    execute_pages = _execute_pages()
     pages = sorted(execute_pages.notebook_pages(), key=lambda path: path.stat().st_size, reverse=True)
     workers = max(1, min(len(pages), os.cpu_count() or 1))
     start = time.perf_counter()
