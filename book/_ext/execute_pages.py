@@ -11,7 +11,10 @@ It does what myst-nb does for one page, so that the build's lookup matches what 
 - the page is read by myst-nb's MyST reader (``read_myst_markdown_notebook``), whose notebook the
   cache hashes (its code cells, their metadata, the kernelspec);
 - it is executed as jupyter-cache's ``single_nb_execution`` executes it (nbclient, in the page's
-  folder, with the ``execute.timeout`` of ``_config.yml``), stopping at the first error;
+  folder, with the ``execute.timeout`` of ``_config.yml``), stopping at the first error, and without
+  nbclient's timing metadata: the cache hashes each code cell's metadata, so a cell that carried its
+  execution times would never match the page the build reads, and the build would execute every page
+  again (it did, until this was found: the execution cost twice);
 - it is cached with ``cache_notebook_bundle``, as myst-nb caches it.
 
 A page whose execution fails is not cached: the build executes it again and reports the error as it
@@ -71,7 +74,7 @@ def execute_page(path, timeout):
         kernel = AsyncKernelManager(kernel_name=notebook.metadata.kernelspec.name, transport="ipc",
                                     connection_file=os.path.join(folder, "kernel.json"))
         client = NotebookClient(notebook, timeout=options.get("timeout", timeout),
-                                allow_errors=options.get("allow_errors", False),
+                                allow_errors=options.get("allow_errors", False), record_timing=False,
                                 resources={"metadata": {"path": str(path.parent)}}, km=kernel)
         start = time.perf_counter()
         try:
@@ -79,6 +82,14 @@ def execute_page(path, timeout):
         except (CellExecutionError, CellTimeoutError):
             return path, None, time.perf_counter() - start, traceback.format_exc()
     return path, notebook, time.perf_counter() - start, None
+
+
+def is_found_by_the_build(cache, path, stored):
+    """Whether the build's lookup of the page (its unexecuted notebook) finds the record ``stored``."""
+    try:
+        return cache.match_cache_notebook(read_page(path)).pk == stored.pk
+    except KeyError:
+        return False
 
 
 def main():
@@ -110,8 +121,12 @@ def main():
                 print(f"  {name}: failed after {seconds:.1f} s ({last}); the build executes it again", flush=True)
                 continue
             record = cache.add_nb_to_project(str(path), read_data={"type": "plugin", "name": "myst_nb_md"})
-            cache.cache_notebook_bundle(CacheBundleIn(notebook, record.uri, data={"execution_seconds": seconds}),
-                                        check_validity=False, overwrite=True)
+            stored = cache.cache_notebook_bundle(CacheBundleIn(notebook, record.uri, data={"execution_seconds": seconds}),
+                                                 check_validity=False, overwrite=True)
+            if not is_found_by_the_build(cache, path, stored):
+                print(f"  {name}: executed in {seconds:.1f} s, but the build will not find it in the cache "
+                      "and executes it again", flush=True)
+                continue
             print(f"  {name}: {seconds:.1f} s", flush=True)
     print(f"execute_pages: {time.perf_counter() - start:.0f} s wall for {len(missing)} pages", flush=True)
     return 0
