@@ -335,15 +335,35 @@ def test_a_signal_ends_basin_and_its_workers(signum, status, word):
     assert not alive, f"workers outlived the command: {alive}"
 
 
+def wait_for_cpu(process, seconds, timeout=60):
+    """Return once ``process`` has used ``seconds`` of CPU time: past its start-up, and working."""
+    watched, deadline = psutil.Process(process.pid), time.monotonic() + timeout
+    while sum(watched.cpu_times()[:2]) < seconds:
+        assert process.poll() is None, f"the command ended before it had used {seconds} s of CPU"
+        assert time.monotonic() < deadline, f"the command used less than {seconds} s of CPU in {timeout} s"
+        time.sleep(0.05)
+
+
+@pytest.fixture(scope="module")
+def generated_code():
+    """The slider-crank's generated functions in the session's code cache, so that a command's start-up
+    (import, cache load: about 0.2 s of CPU) is short and the same in every test that times it."""
+    done = subprocess.run([sys.executable, "-m", "closedloop.cli", "simulate", "--case", "2", "--t-end", "0.01"],
+                          capture_output=True, text=True, env={**os.environ, "PYTHONPATH": SRC})
+    assert done.returncode == 0, done.stderr
+
+
 @pytest.mark.parametrize("method", ["ode.dop853", "RK45"])
 @pytest.mark.parametrize("signum, status, word", [(signal.SIGINT, 130, "interrupted"),
                                                   (signal.SIGTERM, 143, "terminated")])
-def test_a_signal_ends_simulate_in_one_line(method, signum, status, word):
+def test_a_signal_ends_simulate_in_one_line(generated_code, method, signum, status, word):
     """ode.dop853's compiled code calls the right-hand side back: a signal arriving there comes out
-    of scipy as a SystemError, which must still end the run as the signal, not as an internal error."""
+    of scipy as a SystemError, which must still end the run as the signal, not as an internal error.
+
+    The signal is sent once the command has used 1 s of CPU: its start-up takes about 0.2 s, so the
+    signal arrives well inside the integration (a run to t = 1e5 takes minutes)."""
     process = start("simulate", "--case", "2", "--t-end", "1e5", "--method", method)
-    time.sleep(3.0)
-    assert process.poll() is None
+    wait_for_cpu(process, 1.0)
     process.send_signal(signum)
     out, err = process.communicate(timeout=30)
     assert (process.returncode, err, out) == (status, f"closedloop: {word}\n", "")

@@ -27,8 +27,9 @@ make_student = importlib.import_module("make_student")
 CHECKS = importlib.import_module("checking.ch01").CHECKS
 SOURCE = EXERCISES / "01-closed-loop-systems.md"
 LABELS = list(CHECKS)
-#: Seconds for all of a notebook's cells: page 01 runs in about two; the looping notebook takes all.
-TIMEOUT = 20
+#: Seconds for all of a notebook's cells: page 01 runs in about two (five with the book building beside
+#: the tests); the looping notebook takes all of it, on a core of its own.
+TIMEOUT = 10
 #: A file a submission tries to create in the instructor's repository (it must never exist).
 PLANTED = EXERCISES / ".planted-by-a-submission"
 
