@@ -82,15 +82,6 @@ def browser(site):
 
 def open_page(browser, site, page_name):
     """The page in a 1200 x 900 window, with its math typeset, and the list its problems go to."""
-    return finish_loading(*start_loading(browser, site, page_name))
-
-
-def start_loading(browser, site, page_name):
-    """``(page, problems, page_name)``: the page asked for, its problems recorded from the first request on.
-
-    Returns once the browser has the page's HTML; the browser goes on loading and typesetting it
-    while the caller does other things (``finish_loading`` waits for the rest).
-    """
     page = browser.new_page(viewport={"width": 1200, "height": 900})
     problems = []
     page.on("console", lambda m: m.type == "error"
@@ -101,16 +92,10 @@ def start_loading(browser, site, page_name):
     page.on("requestfailed", lambda r: "ERR_ABORTED" in (r.failure or "")
             or problems.append(f"request failed: {r.url} ({r.failure})"))
     page.on("response", lambda r: r.status >= 400 and problems.append(f"HTTP {r.status}: {r.url}"))
-    page.goto(f"{site}/{page_name}.html", wait_until="commit")
-    return page, problems, page_name
-
-
-def finish_loading(page, problems, page_name):
-    """``(page, problems)`` once the page started by ``start_loading`` is loaded and its math typeset."""
     # "load" (every script, stylesheet and image), then the typesetting and the fonts it asks for: every
     # request a page makes is made by then (measured: no request in the 1.5 s after, on any chapter).
     # "networkidle" waits 0.5 s more on every page for the same requests.
-    page.wait_for_load_state("load")
+    page.goto(f"{site}/{page_name}.html", wait_until="load")
     if page_name.rsplit("/", 1)[-1] == "index":              # the front page sends the reader on at once
         page.wait_for_url(f"**/{toc_pages()[0]}.html", wait_until="load")
     if page.locator("div.math, span.math").count():          # MathJax is only loaded where there is math
@@ -171,38 +156,9 @@ OPEN_EVERYTHING = """() => {
 }"""
 
 
-#: Every page of both editions, in the order test_page_is_clean opens them.
-PAGES = [edition + page for edition in EDITIONS for page in ["index", *toc_pages()]]
-#: Pages the browser loads and typesets ahead of the one being checked. A page's typesetting is the
-#: most of its 1-1.5 s; loaded ahead, it runs on the second core while the page before is checked.
-AHEAD = 2
-
-
-@pytest.fixture(scope="module")
-def pages_in_order(browser, site):
-    """``open(page_name)``: ``open_page``, with the next ``AHEAD`` pages of ``PAGES`` already loading.
-
-    A page asked for out of order (``-k``, a rerun) is opened then; one loaded ahead and never asked
-    for is closed at the end.
-    """
-    ahead = {}
-
-    def open_(page_name):
-        started = ahead.pop(page_name, None) or start_loading(browser, site, page_name)
-        index = PAGES.index(page_name)
-        for following in PAGES[index + 1:index + 1 + AHEAD]:
-            if following not in ahead:
-                ahead[following] = start_loading(browser, site, following)
-        return finish_loading(*started)
-
-    yield open_
-    for page, _, _ in ahead.values():
-        page.close()
-
-
-@pytest.mark.parametrize("page_name", PAGES)
-def test_page_is_clean(pages_in_order, page_name):
-    page, problems = pages_in_order(page_name)
+@pytest.mark.parametrize("page_name", [edition + page for edition in EDITIONS for page in ["index", *toc_pages()]])
+def test_page_is_clean(browser, site, page_name):
+    page, problems = open_page(browser, site, page_name)
     shots = ROOT / "_build" / "screenshots"
     shots.mkdir(exist_ok=True)
     page.screenshot(path=str(shots / (page_name.replace("/", "_") + ".png")), full_page=FULL_SCREENSHOTS)
@@ -243,12 +199,12 @@ def test_the_edition_links_open_the_same_page(browser, site, page_name):
     page, problems = open_page(browser, site, page_name)
     english_title = page.locator("article h1").first.inner_text()
     page.locator("p.edition-links a[hreflang=vi]").click()
-    page.wait_for_load_state("networkidle")
+    page.wait_for_url(f"{site}/vi/{page_name}.html", wait_until="load")
     assert page.url == f"{site}/vi/{page_name}.html"
     assert page.evaluate("document.documentElement.lang") == "vi"
     assert page.locator("article h1").first.inner_text() != english_title     # the title is translated
     page.locator("p.edition-links a[hreflang=en]").click()
-    page.wait_for_load_state("networkidle")
+    page.wait_for_url(f"{site}/{page_name}.html", wait_until="load")
     assert page.url == f"{site}/{page_name}.html"
     assert page.locator("article h1").first.inner_text() == english_title
     page.close()
