@@ -8,6 +8,8 @@ real page and look it up exactly as the build does.
 """
 
 import importlib.util
+import os
+import re
 from pathlib import Path
 
 import pytest
@@ -52,3 +54,18 @@ def test_an_executed_page_carries_outputs_and_no_execution_times(execute_pages, 
     # the metadata the page's author wrote are kept: the build renders them (tags, alt text)
     assert [cell.metadata for cell in code] == [cell.metadata for cell in execute_pages.read_page(PAGE).cells
                                                 if cell.cell_type == "code"]
+
+
+def test_the_build_of_this_session_executed_no_page_itself(built_site):
+    """``make book`` (the session's build, conftest.py): the pages are executed once, before the build,
+    and the build itself executes none (myst-nb logs "Executing notebook" for each page it executes)."""
+    from .conftest import BUILD_LOG
+
+    if os.environ.get("CLOSEDLOOP_SITE_BUILT") == "1" or not BUILD_LOG.exists():
+        pytest.skip("the site was built before this session: its build log is not this session's")
+    log = BUILD_LOG.read_text()
+    assert "Executing notebook" not in log, [line for line in log.splitlines() if "Executing notebook" in line]
+    executed = re.search(r"execute_pages: (\d+) pages to execute", log)
+    if executed:                       # a build from scratch: the build found every page executed before it
+        found = set(re.findall(r"^(\S+): Using cached notebook", log, re.M))
+        assert len(found) == int(executed.group(1)), sorted(found)
