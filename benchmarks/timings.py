@@ -88,17 +88,13 @@ def notebooks():
     slowest = max(times, key=times.get)
     print(f"  one after another: {total:.0f} s over {len(times)} notebooks; slowest {times[slowest]:.1f} s "
           f"({slowest})")
-    from concurrent.futures import ProcessPoolExecutor
-
     execute_pages = _execute_pages()
-    pages = sorted(execute_pages.notebook_pages(), key=lambda path: path.stat().st_size, reverse=True)
-    workers = max(1, min(len(pages), os.cpu_count() or 1))
+    pages = execute_pages.notebook_pages()
     start = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        failed = [path for path, notebook, _, _ in pool.map(execute_pages.execute_page, pages,
-                                                            [600] * len(pages)) if notebook is None]
+    failed = [path.relative_to(ROOT) for path, notebook, _, _ in execute_pages.execute(pages, 600) if notebook is None]
     wall = time.perf_counter() - start
-    print(f"  the book's execution as make book runs it, {workers} pages at a time: {wall:.0f} s wall "
+    print(f"  the book's execution as make book runs it, {execute_pages.workers(len(pages))} pages at a time: "
+          f"{wall:.0f} s wall "
           f"(target <= 120 s){'; failed: ' + ', '.join(map(str, failed)) if failed else ''}")
 
 

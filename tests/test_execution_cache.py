@@ -41,10 +41,11 @@ def test_an_executed_page_is_found_by_the_build(execute_pages, executed, tmp_pat
     cache = get_cache(str(tmp_path / "cache"))
     with pytest.raises(KeyError):                               # an empty cache finds nothing
         cache.match_cache_notebook(execute_pages.read_page(PAGE))
+    assert execute_pages.cached_record(cache, execute_pages.read_page(PAGE)) is None
     record = cache.add_nb_to_project(str(PAGE), read_data={"type": "plugin", "name": "myst_nb_md"})
     stored = cache.cache_notebook_bundle(CacheBundleIn(executed, record.uri), check_validity=False, overwrite=True)
-    assert execute_pages.is_found_by_the_build(cache, PAGE, stored)
     assert cache.match_cache_notebook(execute_pages.read_page(PAGE)).pk == stored.pk
+    assert execute_pages.cached_record(cache, execute_pages.read_page(PAGE)).pk == stored.pk
 
 
 def test_an_executed_page_carries_outputs_and_no_execution_times(execute_pages, executed):

@@ -84,12 +84,27 @@ def execute_page(path, timeout):
     return path, notebook, time.perf_counter() - start, None
 
 
-def is_found_by_the_build(cache, path, stored):
-    """Whether the build's lookup of the page (its unexecuted notebook) finds the record ``stored``."""
+def execute(pages, timeout):
+    """``execute_page`` of every page, a core each, the long pages first: its results as they come."""
+    pages = sorted(pages, key=lambda path: path.stat().st_size, reverse=True)
+    with ProcessPoolExecutor(max_workers=workers(len(pages))) as pool:
+        futures = [pool.submit(execute_page, path, timeout) for path in pages]
+        for future in as_completed(futures):
+            yield future.result()
+
+
+def workers(count):
+    """How many pages ``execute`` runs at a time, for ``count`` pages: one per core."""
+    return max(1, min(count, os.cpu_count() or 1))
+
+
+def cached_record(cache, notebook):
+    """The cache's record of the page whose unexecuted notebook is ``notebook``, as the build looks it up,
+    or None."""
     try:
-        return cache.match_cache_notebook(read_page(path)).pk == stored.pk
+        return cache.match_cache_notebook(notebook)
     except KeyError:
-        return False
+        return None
 
 
 def main():
@@ -98,36 +113,28 @@ def main():
 
     settings = yaml.safe_load((ROOT / "_config.yml").read_text())["execute"]
     cache = get_cache(str(ROOT / settings["cache"]))
-    missing = []
-    for path in notebook_pages():
-        try:
-            cache.match_cache_notebook(read_page(path))
-        except KeyError:
-            missing.append(path)
+    pages = {path: read_page(path) for path in notebook_pages()}
+    missing = [path for path, notebook in pages.items() if cached_record(cache, notebook) is None]
     if not missing:
         print("execute_pages: every page is in the execution cache")
         return 0
-    workers = max(1, min(len(missing), os.cpu_count() or 1))
-    print(f"execute_pages: {len(missing)} pages to execute, {workers} at a time", flush=True)
-    missing.sort(key=lambda path: path.stat().st_size, reverse=True)     # the long pages first
+    print(f"execute_pages: {len(missing)} pages to execute, {workers(len(missing))} at a time", flush=True)
     start = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        futures = [pool.submit(execute_page, path, settings.get("timeout", 30)) for path in missing]
-        for future in as_completed(futures):
-            path, notebook, seconds, error = future.result()
-            name = path.relative_to(ROOT)
-            if notebook is None:
-                last = error.strip().splitlines()[-1] if error else "no reason given"
-                print(f"  {name}: failed after {seconds:.1f} s ({last}); the build executes it again", flush=True)
-                continue
-            record = cache.add_nb_to_project(str(path), read_data={"type": "plugin", "name": "myst_nb_md"})
-            stored = cache.cache_notebook_bundle(CacheBundleIn(notebook, record.uri, data={"execution_seconds": seconds}),
-                                                 check_validity=False, overwrite=True)
-            if not is_found_by_the_build(cache, path, stored):
-                print(f"  {name}: executed in {seconds:.1f} s, but the build will not find it in the cache "
-                      "and executes it again", flush=True)
-                continue
-            print(f"  {name}: {seconds:.1f} s", flush=True)
+    for path, notebook, seconds, error in execute(missing, settings.get("timeout", 30)):
+        name = path.relative_to(ROOT)
+        if notebook is None:
+            last = error.strip().splitlines()[-1] if error else "no reason given"
+            print(f"  {name}: failed after {seconds:.1f} s ({last}); the build executes it again", flush=True)
+            continue
+        record = cache.add_nb_to_project(str(path), read_data={"type": "plugin", "name": "myst_nb_md"})
+        stored = cache.cache_notebook_bundle(CacheBundleIn(notebook, record.uri, data={"execution_seconds": seconds}),
+                                             check_validity=False, overwrite=True)
+        found = cached_record(cache, pages[path])
+        if found is None or found.pk != stored.pk:
+            print(f"  {name}: executed in {seconds:.1f} s, but the build will not find it in the cache "
+                  "and executes it again", flush=True)
+            continue
+        print(f"  {name}: {seconds:.1f} s", flush=True)
     print(f"execute_pages: {time.perf_counter() - start:.0f} s wall for {len(missing)} pages", flush=True)
     return 0
 
