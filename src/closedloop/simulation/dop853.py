@@ -134,7 +134,8 @@ class BudgetExceeded(Exception):
 
 
 def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, outputs=None,
-                      first_step=0.0, max_step=0.0, nsteps=DEFAULT_NSTEPS, max_nfev=math.inf):
+                      outputs_increasing=False, first_step=0.0, max_step=0.0, nsteps=DEFAULT_NSTEPS,
+                      max_nfev=math.inf):
     """Integrate ``y' = rhs(t, y)`` from ``t0`` to ``t_end`` or the first switch.
 
     Parameters
@@ -153,6 +154,10 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         Output times in ``[t0, t_end]`` (others are ignored), evaluated with
         DOP853's continuous extension inside the accepted steps: they change
         neither the steps nor the end state; default: every step end.
+    outputs_increasing : bool, optional
+        True when the caller has checked that ``outputs`` increase strictly (as
+        :func:`closedloop.simulate` does once for all segments); else they are
+        checked here, and sorted if they do not.
     first_step, max_step : float, optional
         0 lets the code choose.
     nsteps : int, optional
@@ -175,7 +180,8 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     counted, evaluations, record = _counting(rhs, max_nfev, failure, calls)
     directions = tuple(float(d) for d in directions)
     dense = None if outputs is None else _DenseOutputs(counted, calls, outputs, t0, y0, t_end, record,
-                                                       first_step=min(first_step, t_end - t0))
+                                                       first_step=min(first_step, t_end - t0),
+                                                       increasing=outputs_increasing)
     watch = _StepWatch(switching, directions, t0, y0, first_step, failure=failure, dense=dense)
     if t_end > t0:
         t_code, y_code, code = dop853_code.dopri853(      # scipy's ode(counted) "dop853", but for fac1
@@ -368,11 +374,13 @@ class _DenseOutputs:
         ``record(on)`` turns the recording of the calls into ``calls`` on or off (see :func:`_counting`).
     first_step : float, optional
         The code's first step (0: its own choice, unknown), which no accepted first step exceeds.
+    increasing : bool, optional
+        True: ``times`` are known to increase strictly, and are not checked again.
     """
 
-    def __init__(self, rhs, calls, times, t0, y0, t_end, record=None, first_step=0.0):
+    def __init__(self, rhs, calls, times, t0, y0, t_end, record=None, first_step=0.0, increasing=False):
         times = np.asarray(times, dtype=float)
-        if times.ndim != 1 or (times.size > 1 and np.any(np.diff(times) <= 0)):
+        if not increasing and (times.ndim != 1 or (times.size > 1 and np.any(times[1:] <= times[:-1]))):
             times = np.unique(times)
         self.rhs = rhs
         # the times in [t0, t_end] of the increasing times
@@ -400,7 +408,7 @@ class _DenseOutputs:
         calls, f_start = self.calls, self.f_start
         self.f_start = calls[-1][1] if calls and calls[-1][0] == tb else None
         if tb >= self.next_time:
-            self._hold(ta, ya, tb, yb, f_start, calls[-_STAGES:], int(np.searchsorted(self.times, tb, side="right")))
+            self._hold(ta, ya, tb, yb, f_start, calls[-_STAGES:], int(self.times.searchsorted(tb, "right")))
         calls.clear()
         self.record(self.next_time - tb <= _LOOKAHEAD * (tb - ta))
 
@@ -640,13 +648,14 @@ def continuous_extensions(rhs, ta, ya, tb, yb, stages):
     ``F0 = yb - ya``, ``F1 = h k_1 - F0``, ``F2 = 2 F0 - h (k_1 + k_13)``, ``F3..F6 = h D K``.
     """
     h = tb - ta
+    h_column = h[:, None]
     K = stages
     for s, a, c in _EXTRA_STAGES:                       # K[:s] as stage x (step, component): one product
-        arguments = ya + h[:, None] * (a @ K[:s].reshape(s, -1)).reshape(ya.shape)
+        arguments = ya + h_column * (a @ K[:s].reshape(s, -1)).reshape(ya.shape)
         row = K[s]
         for k, t in enumerate((ta + c * h).tolist()):
-            row[k] = rhs(t, arguments[k])
-    F = (_F_OF_K @ K.reshape(K.shape[0], -1)).reshape(7, *ya.shape) * h[:, None]
+            row[k] = rhs(t, arguments[k])           # one at a time: a right-hand side may reuse its array
+    F = (_F_OF_K @ K.reshape(K.shape[0], -1)).reshape(7, *ya.shape) * h_column
     change = yb - ya
     F[0] += change
     F[1] -= change

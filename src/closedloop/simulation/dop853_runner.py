@@ -54,6 +54,7 @@ def segment(run, t0, s0, sd0, mode):
         result = dop853.integrate_segment(
             rhs, t0, y0, run.t_end, rtol=options.rtol, atol=options.atol,
             switching=_switching_values(run, unpack), directions=directions, outputs=run.outputs.due(t0),
+            outputs_increasing=True,
             max_nfev=run.evaluations_left(),
             nsteps=solver_options.pop("nsteps", max(1, min(dop853.DEFAULT_NSTEPS, steps_left))),
             first_step=first_step if first_step is not None else run.last_step_size, **solver_options)

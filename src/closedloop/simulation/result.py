@@ -187,10 +187,10 @@ class Outputs:
         """The requested times from ``t0`` on (up to ``until``), or None for "every step"."""
         if self.t_eval is None:
             return None
-        rest = self.t_eval[self.next:]
+        rest = self.t_eval[self.next:]                # increasing (simulate checked t_eval): cut by bisection
         if t0 is not None:
-            rest = rest[rest >= t0]
-        return rest if until is None else rest[rest <= until]
+            rest = rest[rest.searchsorted(t0, "left"):]
+        return rest if until is None else rest[:rest.searchsorted(until, "right")]
 
     def add_segment(self, t, y, unpack, mode, t0, work_row):
         """Store a segment's output (states ``y`` unpacked to s, s'); ``work_row``: y carries W last."""
