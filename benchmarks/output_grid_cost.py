@@ -13,6 +13,13 @@ ratios are measured in one run on one machine.  Printed per method and grid:
   1e-13, at the same times), in units of the run's tolerance ``atol + rtol |y|`` (over s and s');
   the line without a grid gives the same at its own step ends.
 
+For ode.dop853, what the outputs' extra CPU time is made of follows the table: the extra
+right-hand sides (their count times the CPU of one call of the generated right-hand side alone,
+timed on the run's own states), the arithmetic of the interpolant at the output times
+alone (:func:`closedloop.simulation.dop853.interpolate` over all of them in one call, timed by
+itself: a floor no bookkeeping can go under), and the rest, the Python bookkeeping per step and
+per segment (recording and checking the stages, holding the steps, gathering their outputs).
+
     python benchmarks/output_grid_cost.py [--repeats 5] [--t-end 1] [--methods ode.dop853 DOP853]
 """
 
@@ -24,6 +31,7 @@ import numpy as np
 
 from closedloop import Minimal, simulate
 from closedloop.formulations import ClosedForm
+from closedloop.simulation import dop853
 from closedloop.slider_crank import get_case, initial_state, slider_crank_system
 
 GRIDS = (None, 10_000, 50_000)
@@ -72,6 +80,44 @@ def main():
             print(f"{method:>10} {'none' if n is None else n:>8} {result.nfev:7d} {result.nfev / plain.nfev:6.2f} "
                   f"{cpu[n]:9.4f} {cpu[n] / cpu[None]:6.2f} {result.n_steps:6d} {str(same):>10} {end:10.2g} "
                   f"{error:9.3g}")
+        if method == dop853.METHOD:
+            _extra_cost(results, cpu, _rhs_cost(system, results[10_000], args.repeats), args.repeats)
+
+
+def _rhs_cost(system, result, repeats):
+    """CPU [s] of one call of ClosedForm's generated right-hand side, at about 500 states of ``result``."""
+    s0, sd0 = result.s[:, 0], result.sd[:, 0]
+    rhs = ClosedForm().make_rhs(system, system.force.mode_at(result.t[0], s0, sd0), None)
+    states = list(np.vstack((result.s, result.sd)).T[::max(1, result.t.size // 500)].copy())
+    best = math.inf
+    for _ in range(max(repeats, 5)):
+        start = time.process_time()
+        for y in states:
+            rhs(0.5, y)
+        best = min(best, (time.process_time() - start) / len(states))
+    return best
+
+
+def _extra_cost(results, cpu, per_evaluation, repeats):
+    """Print what the outputs' extra CPU time of ode.dop853 is made of (see the module's docstring)."""
+    size = results[None].s.shape[0] + results[None].sd.shape[0]
+    rng = np.random.default_rng(0)
+    F, ya = rng.standard_normal((7, size)), rng.standard_normal(size)
+    print(f"{'':>10} extra CPU [ms] = extra right-hand sides ({1e6 * per_evaluation:.2f} us each) + "
+          "interpolant's arithmetic alone + bookkeeping")
+    for n in GRIDS:
+        if n is None:
+            continue
+        x = np.linspace(0.0, 1.0, n)
+        arithmetic = math.inf
+        for _ in range(max(repeats, 5)):
+            start = time.process_time()
+            dop853.interpolate(F, ya, x)
+            arithmetic = min(arithmetic, time.process_time() - start)
+        extra = cpu[n] - cpu[None]
+        calls = (results[n].nfev - results[None].nfev) * per_evaluation
+        print(f"{'':>10} {n:>8} {1e3 * extra:7.3f} = {1e3 * calls:.3f} + {1e3 * arithmetic:.3f} "
+              f"+ {1e3 * (extra - calls - arithmetic):.3f}")
 
 
 if __name__ == "__main__":
