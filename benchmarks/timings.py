@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -123,8 +122,7 @@ def make_test():
         log = repo / "_build" / "test-build.log"       # the session's make book: who executed the pages
         if log.exists():
             text = log.read_text()
-            before = re.search(r"execute_pages: (\d+) pages to execute", text)
-            print(f"  pages executed: {before.group(1) if before else 0} before the build (a core each), "
+            print(f"  pages executed: {_execute_pages().announced_count(text) or 0} before the build (a core each), "
                   f"{text.count('Executing notebook')} by the build itself")
     finally:
         shutil.rmtree(folder, ignore_errors=True)

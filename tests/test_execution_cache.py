@@ -57,7 +57,7 @@ def test_an_executed_page_carries_outputs_and_no_execution_times(execute_pages, 
                                                 if cell.cell_type == "code"]
 
 
-def test_the_build_of_this_session_executed_no_page_itself(built_site):
+def test_the_build_of_this_session_executed_no_page_itself(execute_pages, built_site):
     """``make book`` (the session's build, conftest.py): the pages are executed once, before the build,
     and the build itself executes none (myst-nb logs "Executing notebook" for each page it executes)."""
     from .conftest import BUILD_LOG
@@ -66,7 +66,7 @@ def test_the_build_of_this_session_executed_no_page_itself(built_site):
         pytest.skip("the site was built before this session: its build log is not this session's")
     log = BUILD_LOG.read_text()
     assert "Executing notebook" not in log, [line for line in log.splitlines() if "Executing notebook" in line]
-    executed = re.search(r"execute_pages: (\d+) pages to execute", log)
-    if executed:                       # a build from scratch: the build found every page executed before it
+    executed = execute_pages.announced_count(log)
+    if executed is not None:           # a build from scratch: the build found every page executed before it
         found = set(re.findall(r"^(\S+): Using cached notebook", log, re.M))
-        assert len(found) == int(executed.group(1)), sorted(found)
+        assert len(found) == executed, sorted(found)

@@ -28,6 +28,7 @@ can be given the same port, and one of them dies.
 from __future__ import annotations
 
 import os
+import re
 import sys
 import tempfile
 import time
@@ -107,6 +108,18 @@ def cached_record(cache, notebook):
         return None
 
 
+#: What ``main`` prints before it executes any page, and where a build log says how many it executed.
+ANNOUNCEMENT = "execute_pages: {count} pages to execute, {workers} at a time"
+
+
+def announced_count(log):
+    """The number of pages ``main`` executed before the build whose log (text) is ``log``, or None if it
+    executed none (every page was in the cache, or the script did not run)."""
+    pattern = re.escape(ANNOUNCEMENT).replace(r"\{count\}", r"(\d+)").replace(r"\{workers\}", r"\d+")
+    found = re.search(pattern, log)
+    return int(found.group(1)) if found else None
+
+
 def main():
     from jupyter_cache import get_cache
     from jupyter_cache.base import CacheBundleIn
@@ -118,7 +131,7 @@ def main():
     if not missing:
         print("execute_pages: every page is in the execution cache")
         return 0
-    print(f"execute_pages: {len(missing)} pages to execute, {workers(len(missing))} at a time", flush=True)
+    print(ANNOUNCEMENT.format(count=len(missing), workers=workers(len(missing))), flush=True)
     start = time.perf_counter()
     for path, notebook, seconds, error in execute(missing, settings.get("timeout", 30)):
         name = path.relative_to(ROOT)
