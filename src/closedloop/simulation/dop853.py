@@ -35,7 +35,6 @@ control (:data:`STEP_CONTROL_BETA`).  The method is selected by
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -176,7 +175,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     """
     y0 = np.asarray(y0, dtype=float)
     failure = []                            # an exception raised inside the compiled code's callbacks
-    calls = None if outputs is None else []  # (t, f) of every call, for the stages of the steps
+    calls = None if outputs is None else _Calls()  # the calls, for the stages of the steps
     counted, evaluations, record = _counting(rhs, max_nfev, failure, calls)
     directions = tuple(float(d) for d in directions)
     dense = None if outputs is None else _DenseOutputs(counted, calls, outputs, t0, y0, t_end, record,
@@ -213,17 +212,34 @@ def _with_path(error, watch, failed_at=None):
     return error
 
 
+class _Calls:
+    """The right-hand side's calls recorded by :func:`_counting`: their times, and their values one call
+    after another (``n`` floats a call), copied when the call returns, so that a right-hand side may reuse
+    its array."""
+
+    __slots__ = ("times", "values")
+
+    def __init__(self):
+        self.times, self.values = [], []
+
+    def clear(self):
+        self.times.clear()
+        self.values.clear()
+
+
 def _counting(rhs, max_nfev, failure, calls=None):
     """``(counted, evaluations, record)``: rhs that counts its calls (and stops at max_nfev), the count, and
     ``record(on)``, which turns the recording of the calls on or off.
 
     The compiled caller cannot propagate an exception: a failing call stores it
-    in ``failure`` and returns NaN, and the segment re-raises it.  With a list
-    ``calls``, every call made while recording is on (at first it is) appends
-    ``(t, f)`` to it (for :class:`_DenseOutputs`); without one, ``record`` does nothing.
+    in ``failure`` and returns NaN, and the segment re-raises it.  With a :class:`_Calls`
+    ``calls``, every call made while recording is on (at first it is) appends its time
+    and its values to it (for :class:`_DenseOutputs`); without one, ``record`` does nothing.
     """
     count = 0
     recording = calls is not None
+    if recording:
+        add_time, add_values = calls.times.append, calls.values.extend
 
     def record(on):
         nonlocal recording
@@ -240,7 +256,8 @@ def _counting(rhs, max_nfev, failure, calls=None):
             failure.append(_failed_at(t, error))
             f = [math.nan] * y.size
         if recording:
-            calls.append((t, f))
+            add_time(t)
+            add_values(f)
         return f
 
     return counted, lambda: count, record
@@ -334,7 +351,7 @@ def _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failur
 class _DenseOutputs:
     """The requested output times of a segment, from DOP853's continuous extension of the accepted steps.
 
-    The compiled code's right-hand side appends every call ``(t, f)`` to ``calls``
+    The compiled code's right-hand side records every call's time and values in ``calls``
     (see :func:`_counting`); the calls since the last accepted step are kept.  When ``solout`` reports an
     accepted step from ``ta`` to ``tb``, its last twelve calls are the eleven
     stages at ``ta + c_i h`` (i = 2..12) and f at the new step end (the code's
@@ -347,7 +364,7 @@ class _DenseOutputs:
     the step end ``ya + h sum b_i k_i`` they give against the code's, to round-off),
     the three extra stages of the extension are computed, and the interpolant is
     evaluated at each step's output times.  A step whose check fails (a code that
-    calls in another order, a right-hand side that reuses its array) has its stages
+    calls in another order, a step whose calls were not all recorded) has its stages
     recomputed from ``(ta, ya, h)`` and checked the same way.  Per step that holds
     outputs this costs the three right-hand sides and a few Python operations; the
     arithmetic is done in whole arrays, over all such steps or all outputs.
@@ -363,8 +380,8 @@ class _DenseOutputs:
     ----------
     rhs : callable
         The counted right-hand side, for the extra stages.
-    calls : list
-        Where ``rhs`` appends its calls.
+    calls : _Calls
+        Where ``rhs`` records its calls.
     times : array_like
         The requested output times; those outside ``[t0, t_end]`` are ignored.
     t0, y0 : float, ndarray
@@ -382,46 +399,56 @@ class _DenseOutputs:
         times = np.asarray(times, dtype=float)
         if not increasing and (times.ndim != 1 or (times.size > 1 and np.any(times[1:] <= times[:-1]))):
             times = np.unique(times)
-        self.rhs = rhs
+        self.rhs, self.size = rhs, y0.size
         # the times in [t0, t_end] of the increasing times
         self.times = times[np.searchsorted(times, t0, side="left"):np.searchsorted(times, t_end, side="right")]
         self.next = 0                       # index of the first time not yet output
         self.next_time = float(self.times[0]) if self.times.size else math.inf   # that time, or inf
         self.record = record if record is not None else (lambda on: None)
         self.record(not first_step > 0.0 or self.next_time - t0 <= _LOOKAHEAD * first_step)
-        self.calls = calls                  # (t, f) of the calls since the last accepted step
-        self.f_start = None                 # f at the start of the current step
+        self.calls = calls                  # the calls since the last accepted step
+        self.f_start = None                 # f at the start of the current step (a list), or None
         self.crossing = None                # the calls and f_start of the step that crossed a switch
         self.held = []                      # _HeldStep of the steps that hold output times inside them
+        # their 13 recorded stages (f at ta, then the last twelve calls), one step after another, n floats a
+        # stage; zeros for a step whose calls were not all recorded (its stages are recomputed)
+        self.stages = []
+        self.missing = [0.0] * ((_STAGES + 1) * self.size)
         self.known = []                     # (start, stop, y): the outputs start..stop-1 are the state y
         if self.times.size and self.times[0] == t0:
             self._known(1, y0)
 
     def start(self, t0):
         """At the code's ``solout`` call at the start point: its first call was f at ``t0``."""
-        if self.calls and self.calls[0][0] == t0:
-            self.f_start = self.calls[0][1]
-        self.calls.clear()
+        calls, n = self.calls, self.size
+        if calls.times and calls.times[0] == t0 and len(calls.values) >= n:
+            self.f_start = calls.values[:n]
+        calls.clear()
 
     def step(self, ta, ya, tb, yb):
         """An accepted step from ``(ta, ya)`` to ``(tb, yb)``: the requested times in ``(ta, tb]`` are its."""
-        calls, f_start = self.calls, self.f_start
-        self.f_start = calls[-1][1] if calls and calls[-1][0] == tb else None
+        calls, f_start, n = self.calls, self.f_start, self.size
+        times, values = calls.times, calls.values
+        whole = len(values) == n * len(times)            # every call gave n values
+        self.f_start = values[-n:] if whole and times and times[-1] == tb else None
         if tb >= self.next_time:
-            self._hold(ta, ya, tb, yb, f_start, calls[-_STAGES:], int(self.times.searchsorted(tb, "right")))
+            self._hold(ta, ya, tb, yb, f_start, times[-_STAGES:], values[-_STAGES * n:] if whole else None,
+                       int(self.times.searchsorted(tb, "right")))
         calls.clear()
         self.record(self.next_time - tb <= _LOOKAHEAD * (tb - ta))
 
     def crossed(self):
         """``solout`` stopped the code at a step that crossed a switch: keep that step's calls."""
-        self.crossing = (list(self.calls[-_STAGES:]), self.f_start)
+        times, values, n = self.calls.times, self.calls.values, self.size
+        whole = len(values) == n * len(times)
+        self.crossing = (times[-_STAGES:], values[-_STAGES * n:] if whole else None, self.f_start)
 
     def before_switch(self, ta, ya, tb, yb, t_event):
         """The requested times in ``(ta, t_event)`` are those of the step that crossed, ``(ta, ya)`` to ``(tb, yb)``."""
         stop = int(np.searchsorted(self.times, t_event, side="left"))
         if stop > self.next:
-            calls, f_start = self.crossing
-            self._hold(ta, ya, tb, yb, f_start, calls, stop)
+            times, values, f_start = self.crossing
+            self._hold(ta, ya, tb, yb, f_start, times, values, stop)
 
     def finish(self, y_end):
         """At t_end: any time left lies beyond the last step end by round-off, where the state is ``y_end``."""
@@ -436,15 +463,23 @@ class _DenseOutputs:
             states[:, start:stop] = y[:, None]
         if self.held:
             self.record(False)
-            held, self.held = self.held, []
-            _evaluate_held_steps(self.rhs, held, self.times, states)
+            held, stages, self.held, self.stages = self.held, self.stages, [], []
+            _evaluate_held_steps(self.rhs, held, stages, self.times, states)
         return self.times[:count].copy(), states
 
-    def _hold(self, ta, ya, tb, yb, f_start, calls, stop):
-        """The output times ``next .. stop-1`` lie in the step ``(ta, ya)`` to ``(tb, yb)``: keep it."""
+    def _hold(self, ta, ya, tb, yb, f_start, times, values, stop):
+        """The output times ``next .. stop-1`` lie in the step ``(ta, ya)`` to ``(tb, yb)``: keep it, with its
+        last recorded calls (``times``, and their ``values``, or None if some call did not give n values)."""
         start, inside = self.next, stop if self.times[stop - 1] != tb else stop - 1
         if inside > start:
-            self.held.append(_HeldStep(ta, ya, tb, yb, f_start, calls, start, inside))
+            complete = f_start is not None and values is not None and len(times) == _STAGES
+            if complete:
+                self.stages.extend(f_start)
+                self.stages.extend(values)
+            else:
+                self.stages.extend(self.missing)
+            self.held.append(_HeldStep(ta, ya, tb, yb, complete, times[0] if times else math.nan,
+                                       times[-1] if times else math.nan, start, inside))
         self.next = inside
         if stop > inside:                   # an output at the step end: the code's own state
             self._known(1, yb)
@@ -462,14 +497,17 @@ class _HeldStep(NamedTuple):
     ya: np.ndarray
     tb: float
     yb: np.ndarray
-    f_start: object          # f at ta (recorded), or None
-    calls: list              # its last recorded calls (t, f): the stages 2..12 and f at tb, if all were recorded
+    complete: bool           # f at ta and its last twelve calls were recorded (in _DenseOutputs.stages)
+    first_call: float        # the time of the first of its last twelve recorded calls (the stage 2), or nan
+    last_call: float         # the time of its last recorded call (f at tb), or nan
     start: int               # the outputs start .. stop-1 lie inside it
     stop: int
 
 
-def _evaluate_held_steps(rhs, held, times, states):
+def _evaluate_held_steps(rhs, held, stages, times, states):
     """Write into ``states`` the outputs inside the ``held`` steps (:class:`_HeldStep`), all at once.
+
+    ``stages`` holds their 13 recorded stages, one step after another (:attr:`_DenseOutputs.stages`).
 
     Their stages come from the recorded calls where those pass the check of
     :func:`_rebuilds_step_ends`, else are recomputed (:func:`step_stages`) and checked
@@ -479,10 +517,10 @@ def _evaluate_held_steps(rhs, held, times, states):
     count, size = len(held), states.shape[0]
     ta, tb, h, ya, yb = _held_ends(held)
     K = np.empty((_STAGES + 4, count, size))               # stage, step, component
-    complete = np.array([step.f_start is not None and len(step.calls) == _STAGES for step in held])
-    K[:_STAGES + 1] = _recorded_stages(held, complete, size).transpose(1, 0, 2)
-    first_call = np.array([step.calls[0][0] if step.calls else math.nan for step in held])
-    last_call = np.array([step.calls[-1][0] if step.calls else math.nan for step in held])
+    complete = np.array([step.complete for step in held])
+    K[:_STAGES + 1] = np.array(stages).reshape(count, _STAGES + 1, size).transpose(1, 0, 2)
+    first_call = np.array([step.first_call for step in held])
+    last_call = np.array([step.last_call for step in held])
     checked = (complete
                & (np.abs(first_call - (ta + _C[1] * h)) <= 1e-9 * np.abs(h) + 1e-15 * np.maximum(np.abs(ta), np.abs(tb)))
                & (last_call == tb) & _rebuilds_step_ends(ya, h, K, yb, tb))
@@ -525,25 +563,6 @@ def _held_ends(held):
     ta = np.array([step.ta for step in held])
     tb = np.array([step.tb for step in held])
     return ta, tb, tb - ta, np.array([step.ya for step in held]), np.array([step.yb for step in held])
-
-
-def _recorded_stages(held, complete, size):
-    """The recorded f at ta and calls of every held step, as an array (S, 13, n): its 13 stages where
-    ``complete`` (boolean, per step: f at ta and twelve calls were recorded), zeros where not (the caller
-    recomputes those steps)."""
-    missing = [0.0] * ((_STAGES + 1) * size)
-
-    def values():
-        for step, whole in zip(held, complete.tolist()):
-            if not whole:
-                yield missing
-            else:
-                yield step.f_start
-                for _, f in step.calls:
-                    yield f
-
-    flat = np.fromiter(itertools.chain.from_iterable(values()), dtype=float, count=len(held) * (_STAGES + 1) * size)
-    return flat.reshape(len(held), _STAGES + 1, size)
 
 
 #: DOP853's coefficients (Hairer's, as scipy's DOP853 carries them): the 12 stages of the step,
