@@ -13,7 +13,7 @@ wall, CPU
     times the same map in one process.
 agreement
     The reference classifies ``--sample`` cells drawn at random (seed
-    ``--seed``), one :func:`closedloop.simulate` run per cell (Minimal, DOP853,
+    ``--seed``), one :func:`closedloop.simulate` run per cell (ClosedForm, ode.dop853,
     rtol = atol = 1e-10; :func:`closedloop.studies.basin.reference_outcome`).  For every
     cell where map and reference disagree, the reference also classifies its
     four neighbours: the cell is "on the boundary" if one of them has the other
@@ -79,7 +79,7 @@ def main():
     reference = references(cells, phi, dphi, args.workers)
     seconds = time.perf_counter() - start
     wrong = [c for c in cells if reference[c] != basin.outcome[c]]
-    print(f"reference (simulate, Minimal, DOP853, rtol 1e-10) on {len(cells)} random cells: "
+    print(f"reference (simulate, ClosedForm, ode.dop853, rtol 1e-10) on {len(cells)} random cells: "
           f"{seconds:.1f} s wall, {seconds / len(cells):.2f} s a cell")
     print(f"agreement: {len(cells) - len(wrong)} of {len(cells)} = {100 * (1 - len(wrong) / len(cells)):.2f} %")
     if wrong:

@@ -18,9 +18,9 @@ OUTWARD = (4.0, 1.0)
 def _case_codes():
     """The four cases' outcome codes over 20 s, each from one adaptive run of simulate.
 
-    ``reference_outcome`` (Minimal, DOP853, rtol 1e-10; a rotating run stops once it has turned)
-    is the classification the chapter checks the batch integrator against, and costs about half
-    of a second batch run beside the student's.
+    ``reference_outcome`` (ClosedForm, ode.dop853, rtol 1e-10; a rotating run stops once it has turned)
+    is the classification the chapter checks the batch integrator against, and costs about a sixth
+    of a second batch run beside the student's (0.18 s against 1.2 s, measured here).
     """
     system = slider_crank_system()
     return np.array([reference_outcome(system, CASES[number].phi0, CASES[number].dphi0, 20.0)
