@@ -176,8 +176,13 @@ class BackgroundBuild:
         if self.process is not None and self.process.poll() is None:
             os.killpg(self.process.pid, signal.SIGTERM)
             self.process.wait(timeout=30)
+            try:                               # what outlived make in its group (execute_pages' workers)
+                os.killpg(self.process.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
 
 
+@pytest.hookimpl(trylast=True)                 # after -k and -m have deselected: no build for tests not run
 def pytest_collection_modifyitems(session, config, items):
     groups = {name: [item for item in items if name in getattr(item, "fixturenames", ())
                      and not any(later in getattr(item, "fixturenames", ()) for later in list(BUILDS)[i + 1:])]
