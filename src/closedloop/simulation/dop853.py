@@ -226,6 +226,13 @@ class _Calls:
         self.times.clear()
         self.values.clear()
 
+    def last(self, count, n):
+        """``(times, values)`` of the last ``count`` calls; ``values`` is None if some call did not give ``n``
+        values (a failed call, or a right-hand side of another size)."""
+        times, values = self.times, self.values
+        whole = len(values) == n * len(times)
+        return times[-count:], values[-count * n:] if whole else None
+
 
 def _counting(rhs, max_nfev, failure, calls=None):
     """``(counted, evaluations, record)``: rhs that counts its calls (and stops at max_nfev), the count, and
@@ -428,20 +435,16 @@ class _DenseOutputs:
     def step(self, ta, ya, tb, yb):
         """An accepted step from ``(ta, ya)`` to ``(tb, yb)``: the requested times in ``(ta, tb]`` are its."""
         calls, f_start, n = self.calls, self.f_start, self.size
-        times, values = calls.times, calls.values
-        whole = len(values) == n * len(times)            # every call gave n values
-        self.f_start = values[-n:] if whole and times and times[-1] == tb else None
+        times, values = calls.last(_STAGES, n)
+        self.f_start = values[-n:] if values is not None and times and times[-1] == tb else None
         if tb >= self.next_time:
-            self._hold(ta, ya, tb, yb, f_start, times[-_STAGES:], values[-_STAGES * n:] if whole else None,
-                       int(self.times.searchsorted(tb, "right")))
+            self._hold(ta, ya, tb, yb, f_start, times, values, int(self.times.searchsorted(tb, "right")))
         calls.clear()
         self.record(self.next_time - tb <= _LOOKAHEAD * (tb - ta))
 
     def crossed(self):
         """``solout`` stopped the code at a step that crossed a switch: keep that step's calls."""
-        times, values, n = self.calls.times, self.calls.values, self.size
-        whole = len(values) == n * len(times)
-        self.crossing = (times[-_STAGES:], values[-_STAGES * n:] if whole else None, self.f_start)
+        self.crossing = (*self.calls.last(_STAGES, self.size), self.f_start)
 
     def before_switch(self, ta, ya, tb, yb, t_event):
         """The requested times in ``(ta, t_event)`` are those of the step that crossed, ``(ta, ya)`` to ``(tb, yb)``."""
