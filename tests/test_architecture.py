@@ -15,6 +15,9 @@ module level or inside a function, and resolves it to the full module name it re
 - Nor any subpackage of scipy (scipy.integrate imports scipy.optimize, scipy.sparse, scipy.special,
   scipy.linalg: about 0.3 s), so that a run with the compiled DOP853, which needs only its extension
   (closedloop.simulation.dop853_code), imports none (issue 14).
+
+Every installed package that the library imports is declared in pyproject.toml's dependencies or its
+``plot``/``interactive`` extras, and every one the tests and benchmarks import, in its ``test`` extra.
 """
 
 import ast
@@ -221,6 +224,62 @@ def test_the_solver_classes_are_made_on_first_use_and_are_scipy_s():
     for module in (methods, solve_ivp_runner, projected):
         with pytest.raises(AttributeError, match="no_such_name"):
             module.no_such_name
+
+
+# -- every package imported is declared -----------------------------------------------------------
+REPOSITORY = PACKAGE_ROOT.parents[1]
+
+
+def declared_distributions():
+    """``(library, tests)``: the normalised names of the distributions pyproject.toml declares for the library
+    (its dependencies and its ``plot`` and ``interactive`` extras), and those its ``test`` extra adds."""
+    import tomllib
+
+    from packaging.requirements import Requirement
+    from packaging.utils import canonicalize_name
+
+    project = tomllib.loads((REPOSITORY / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    extras = project["optional-dependencies"]
+
+    def names(requirements):
+        return {canonicalize_name(Requirement(text).name) for text in requirements}
+
+    return names(project["dependencies"] + extras["plot"] + extras["interactive"]), names(extras["test"])
+
+
+def third_party_imports(paths):
+    """``{distribution: [where, ...]}`` for every installed distribution that ``paths`` import, at any level."""
+    import sys
+    from importlib.metadata import packages_distributions
+
+    from packaging.utils import canonicalize_name
+
+    owners = packages_distributions()
+    found = {}
+    for path in paths:
+        for line, _, names in imports_of(path.read_text(encoding="utf-8"), "script"):
+            top = names[0].partition(".")[0]
+            if top and top not in sys.stdlib_module_names and top != PACKAGE:
+                for distribution in owners.get(top, ()):
+                    found.setdefault(canonicalize_name(distribution), []).append(
+                        f"{path.relative_to(REPOSITORY)}:{line}")
+    return found
+
+
+def test_every_package_the_library_imports_is_declared_for_it():
+    library, _ = declared_distributions()
+    undeclared = {name: where for name, where in third_party_imports(MODULES).items() if name not in library}
+    assert not undeclared, f"imported by the library but not in pyproject.toml's dependencies: {undeclared}"
+
+
+def test_every_package_the_tests_and_benchmarks_import_is_declared_for_them():
+    """psutil, for one, came in only as ipykernel's dependency until the test extra named it."""
+    library, tests = declared_distributions()
+    scripts = sorted((REPOSITORY / "tests").glob("*.py")) + sorted((REPOSITORY / "benchmarks").glob("*.py"))
+    used = third_party_imports(scripts)
+    assert {"psutil", "hypothesis", "numpy"} <= set(used)          # the scan finds them
+    undeclared = {name: where for name, where in used.items() if name not in library | tests}
+    assert not undeclared, f"imported by the tests or benchmarks but not in the test extra: {undeclared}"
 
 
 # -- old homes ----------------------------------------------------------------------------------
