@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..linalg import NULL_SPACE_BASES, null_space_basis, orthogonal_complement, solve_augmented
+from ..linalg import NULL_SPACE_BASES, null_space_basis, orthogonal_complement, solve_augmented, solve_dense
 from ..validation import finite_number, one_of, positive_number
 from .base import Formulation
 
@@ -137,7 +137,7 @@ class Orthogonal(_Stabilised):
         R = orthogonal_complement(Phi, system.q_index, system.z_index, t)
         A = np.vstack((R.T @ M, Phi))                                       # (25)
         p = np.concatenate((R.T @ p1, baumgarte_p2(Phi, gamma, constraint_values, sd, self.alpha, self.beta)))
-        return np.linalg.solve(A, p)                                         # (26)
+        return solve_dense(A, p)                                             # (26)
 
 
 
@@ -175,4 +175,4 @@ class NullSpace(_Stabilised):
         N = null_space_basis(Phi, self.basis, t)
         A = np.vstack((N.T @ M, Phi))
         p = np.concatenate((N.T @ p1, baumgarte_p2(Phi, gamma, constraint_values, sd, self.alpha, self.beta)))
-        return np.linalg.solve(A, p)
+        return solve_dense(A, p)
