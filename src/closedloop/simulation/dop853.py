@@ -521,7 +521,7 @@ def _evaluate_held_steps(rhs, held, stages, times, states):
     ta, tb, h, ya, yb = _held_ends(held)
     K = np.empty((_STAGES + 4, count, size))               # stage, step, component
     complete = np.array([step.complete for step in held])
-    K[:_STAGES + 1] = np.array(stages).reshape(count, _STAGES + 1, size).transpose(1, 0, 2)
+    K[:_STAGES + 1] = np.fromiter(stages, float, len(stages)).reshape(count, _STAGES + 1, size).transpose(1, 0, 2)
     first_call = np.array([step.first_call for step in held])
     last_call = np.array([step.last_call for step in held])
     checked = (complete
@@ -541,7 +541,11 @@ def _evaluate_held_steps(rhs, held, stages, times, states):
     coefficients = np.concatenate((continuous_extensions(rhs, ta, ya, tb, yb, K), ya[None]), axis=0)
     coefficients = coefficients.transpose(1, 2, 0).copy()
     counts = [step.stop - step.start for step in held]
-    x = np.concatenate([times[step.start:step.stop] for step in held])       # the held outputs, in order
+    start, stop = held[0].start, held[-1].stop
+    if stop - start == sum(counts):         # no output at a step end between them: one slice
+        x = times[start:stop].copy()
+    else:
+        x = np.concatenate([times[step.start:step.stop] for step in held])   # the held outputs, in order
     x -= np.repeat(ta, counts)
     x /= np.repeat(h, counts)                                                # fractions of their steps
     # The basis a group of steps at a time (the steps from k on that hold <= _GROUP_OUTPUTS outputs, or
