@@ -16,6 +16,7 @@ from closedloop import (Augmented, Baumgarte, InitialState, InputError, Minimal,
                         SingularConfigurationError, System, consistent_initial_state, derive, formulation_from_name,
                         null_space_basis, simulate)
 from closedloop.four_bar import four_bar_model
+from closedloop.linalg import solve_dense, solve_small
 from closedloop.model import condition_number
 from closedloop.slider_crank import SliderCrankParameters, initial_state, slider_crank_model, slider_crank_system
 
@@ -45,6 +46,38 @@ def test_condition_number_closed_form_matches_numpy():
         A = rng.normal(size=(2, 2)) * 10.0 ** rng.uniform(-3, 3)
         assert condition_number(A) == pytest.approx(np.linalg.cond(A), rel=1e-8)
     assert condition_number(np.array([[1.0, 2.0], [2.0, 4.0]])) == math.inf
+
+
+def test_solve_dense_solves_as_numpy_does_and_refuses_a_singular_matrix():
+    """solve_dense calls LAPACK's dgesv directly (numpy.linalg.solve's routine, without its overhead): the
+    same solutions to round-off, for a vector and for a matrix of right-hand sides, and the same error."""
+    rng = np.random.default_rng(11)
+    for size in (3, 5, 8):
+        A = rng.normal(size=(size, size)) + size * np.eye(size)
+        for b in (rng.normal(size=size), rng.normal(size=(size, 2))):
+            x = solve_dense(A, b)
+            assert x.shape == b.shape
+            np.testing.assert_allclose(x, np.linalg.solve(A, b), rtol=1e-12, atol=1e-14)
+            np.testing.assert_allclose(A @ x, b, rtol=1e-12, atol=1e-12)
+    singular = np.array([[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 1.0, 1.0]])
+    with pytest.raises(np.linalg.LinAlgError, match="Singular matrix"):
+        solve_dense(singular, np.ones(3))
+
+
+def test_solve_small_two_by_two_is_cramers_rule_and_refuses_round_off_singular_matrices():
+    rng = np.random.default_rng(13)
+    for _ in range(200):
+        A = rng.normal(size=(2, 2)) * 10.0 ** rng.uniform(-3, 3)
+        b = rng.normal(size=2)
+        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+        expected = np.array([A[1, 1] * b[0] - A[0, 1] * b[1], A[0, 0] * b[1] - A[1, 0] * b[0]]) / det
+        assert np.array_equal(solve_small(A, b), expected)                  # the same IEEE operations
+        B = rng.normal(size=(2, 3))
+        np.testing.assert_allclose(A @ solve_small(A, B), B, rtol=1e-9, atol=1e-9 * np.abs(B).max())
+    for singular in (np.array([[1.0, 2.0], [2.0, 4.0]]), np.array([[1.0, 1.0], [1.0, 1.0 + 2.3e-16]]),
+                     np.array([[np.nan, 1.0], [1.0, 1.0]])):
+        with pytest.raises(np.linalg.LinAlgError):
+            solve_small(singular, np.ones(2))
 
 
 @pytest.mark.parametrize("basis", ["svd", "pivoted"])
