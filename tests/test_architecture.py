@@ -247,8 +247,8 @@ def declared_distributions():
     return names(project["dependencies"] + extras["plot"] + extras["interactive"]), names(extras["test"])
 
 
-def third_party_imports(paths):
-    """``{distribution: [where, ...]}`` for every installed distribution that ``paths`` import, at any level."""
+def distributions_imported(source):
+    """``{distribution: [line, ...]}`` for every installed distribution that ``source`` imports, at any level."""
     import sys
     from importlib.metadata import packages_distributions
 
@@ -256,14 +256,26 @@ def third_party_imports(paths):
 
     owners = packages_distributions()
     found = {}
-    for path in paths:
-        for line, _, names in imports_of(path.read_text(encoding="utf-8"), "script"):
-            top = names[0].partition(".")[0]
+    for line, _, names in imports_of(source, "script"):
+        for top in {name.partition(".")[0] for name in names}:     # `import a, b` reaches both
             if top and top not in sys.stdlib_module_names and top != PACKAGE:
                 for distribution in owners.get(top, ()):
-                    found.setdefault(canonicalize_name(distribution), []).append(
-                        f"{path.relative_to(REPOSITORY)}:{line}")
+                    found.setdefault(canonicalize_name(distribution), []).append(line)
     return found
+
+
+def third_party_imports(paths):
+    """``{distribution: ["path:line", ...]}`` for every installed distribution that ``paths`` import."""
+    found = {}
+    for path in paths:
+        for distribution, lines in distributions_imported(path.read_text(encoding="utf-8")).items():
+            found.setdefault(distribution, []).extend(f"{path.relative_to(REPOSITORY)}:{line}" for line in lines)
+    return found
+
+
+def test_the_dependency_scan_finds_every_name_of_an_import_and_skips_the_standard_library_and_local_modules():
+    source = "import json, psutil\nfrom .conftest import x\nfrom numpy.linalg import solve\nimport closedloop\n"
+    assert distributions_imported(source) == {"psutil": [1], "numpy": [3]}
 
 
 def test_every_package_the_library_imports_is_declared_for_it():
