@@ -10,6 +10,10 @@ real page and look it up exactly as the build does.
 import importlib.util
 import os
 import re
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -70,3 +74,99 @@ def test_the_build_of_this_session_executed_no_page_itself(execute_pages, built_
     if executed is not None:           # a build from scratch: the build found every page executed before it
         found = set(re.findall(r"^(\S+): Using cached notebook", log, re.M))
         assert len(found) == executed, sorted(found)
+
+
+# -- running it on a book of its own --------------------------------------------------------------
+PAGE_TEMPLATE = """---
+jupytext:
+  text_representation:
+    extension: .md
+    format_name: myst
+kernelspec:
+  display_name: Python 3
+  language: python
+  name: python3
+---
+
+# {title}
+
+```{{code-cell}} ipython3
+{code}
+```
+"""
+
+
+def small_book(folder, pages):
+    """A book in ``folder`` of ``pages`` (``{name: code of its one cell}``), with its own copy of
+    execute_pages.py (whose root is the book's folder) and an empty execution cache: the command that runs it."""
+    (folder / "book" / "_ext").mkdir(parents=True)
+    (folder / "book" / "_ext" / "execute_pages.py").write_text((ROOT / "book" / "_ext" / "execute_pages.py").read_text())
+    (folder / "_config.yml").write_text("execute:\n  cache: _build/.jupyter_cache\n  timeout: 300\n")
+    (folder / "_toc.yml").write_text("format: jb-book\nroot: intro\nparts:\n  - chapters:\n"
+                                     + "".join(f"    - file: {name}\n" for name in pages))
+    (folder / "intro.md").write_text("# A book\n")
+    for name, code in pages.items():
+        (folder / f"{name}.md").write_text(PAGE_TEMPLATE.format(title=name, code=code))
+    return [sys.executable, "book/_ext/execute_pages.py"]
+
+
+def test_a_failing_page_is_named_with_its_error_in_plain_text_and_not_cached(tmp_path):
+    command = small_book(tmp_path, {"broken": 'raise ValueError("a bug of the page")'})
+    done = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout + done.stderr
+    line = next(line for line in done.stdout.splitlines() if line.startswith("  broken.md: "))
+    assert re.fullmatch(r"  broken\.md: failed after [0-9.]+ s \(ValueError: a bug of the page\); "
+                        r"the build executes it again", line), line      # no terminal colour codes in it
+    again = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert "1 pages to execute" in again.stdout                            # it was not cached
+
+
+@pytest.mark.parametrize("signum, to_group", [(signal.SIGINT, True), (signal.SIGTERM, False)],
+                         ids=["ctrl-c", "sigterm"])
+def test_a_signal_stops_the_execution_with_its_workers_and_kernels(tmp_path, signum, to_group):
+    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) or SIGTERM to the script alone,
+    while both pages run: it stops at once, says so, and leaves no worker and no kernel behind.  Before,
+    nbclient's handler in each worker shut only the page's kernel down, and the workers went on to the
+    next pages.  (After a Ctrl-C the kernels may log their end, a KeyboardInterrupt or a closed socket: the
+    worker's nbclient handler interrupts its kernel and starts to shut it down as the worker is killed.)"""
+    import psutil
+
+    sleeping = 'import pathlib\nimport time\n\npathlib.Path("{}.running").touch()\ntime.sleep(120)'
+    command = small_book(tmp_path, {name: sleeping.format(name) for name in ("one", "two")})
+    # SIGINT at its default, as in a terminal (a shell's background job starts with it ignored)
+    process = subprocess.Popen(command, cwd=tmp_path,
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    seen = []
+    try:
+        deadline = time.monotonic() + 90
+        while not all((tmp_path / f"{name}.running").exists() for name in ("one", "two")):
+            assert time.monotonic() < deadline and process.poll() is None, "the two pages did not start"
+            time.sleep(0.2)
+        seen = psutil.Process(process.pid).children(recursive=True)      # two workers, each with its kernel
+        assert sum("ipykernel_launcher" in " ".join(_command(p)) for p in seen) == 2
+        if to_group:
+            os.killpg(process.pid, signum)
+        else:
+            process.send_signal(signum)
+        out, _ = process.communicate(timeout=20)
+    finally:
+        try:                                              # what is left of its group, if the test failed
+            os.killpg(process.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    assert process.returncode == 128 + signum, out
+    assert f"execute_pages: stopped by {signal.Signals(signum).name} after 0 of 2 pages" in out
+    # no traceback of the script's own, nor of its pool's thread (the kernels may log their end: see above)
+    assert 'execute_pages.py", line' not in out and "concurrent/futures" not in out, out.replace("\n", "\n| ")
+    _, alive = psutil.wait_procs(seen, timeout=10)        # the kernels leave when their workers do
+    assert not alive, f"outlived the script: {[' '.join(_command(p)) for p in alive]}"
+
+
+def _command(process):
+    import psutil
+
+    try:
+        return process.cmdline()
+    except psutil.Error:                                  # it has just ended
+        return []

@@ -22,13 +22,21 @@ always has (``execute.raise_on_error``), so this script cannot hide a failure.  
 its client through Unix sockets in a folder of its own: kernels started at the same moment over TCP
 can be given the same port, and one of them dies.
 
+Ctrl-C (SIGINT) or SIGTERM stops it at once: no page starts after it, the workers are ended, and
+their kernels end with them (ipykernel leaves when its parent process does); the pages already
+executed stay in the cache.  Without this, a stopped run went on: nbclient's own handler of both
+signals in a worker only shuts that page's kernel down, the worker then took the next page, and
+the pool waited for all of them.
+
     .venv/bin/python book/_ext/execute_pages.py        # make book and make pdf run it
 """
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import re
+import signal
 import sys
 import tempfile
 import time
@@ -86,12 +94,24 @@ def execute_page(path, timeout):
 
 
 def execute(pages, timeout):
-    """``execute_page`` of every page, a core each, the long pages first: its results as they come."""
+    """``execute_page`` of every page, a core each, the long pages first: its results as they come.
+
+    If the caller is stopped while it waits (KeyboardInterrupt, or the exception of :func:`main`'s
+    SIGTERM handler) or stops iterating, the workers are killed (their kernels follow them), no page
+    starts after it, and the exception goes on.
+    """
     pages = sorted(pages, key=lambda path: path.stat().st_size, reverse=True)
     with ProcessPoolExecutor(max_workers=workers(len(pages))) as pool:
         futures = [pool.submit(execute_page, path, timeout) for path in pages]
-        for future in as_completed(futures):
-            yield future.result()
+        try:
+            for future in as_completed(futures):
+                yield future.result()
+        except BaseException:
+            # the pool's workers (this process has no other children); the pool, broken, then fails the pages
+            # not started (cancelling them first trips Python 3.11's pool: an InvalidStateError in its thread)
+            for worker in multiprocessing.active_children():
+                worker.kill()
+            raise
 
 
 def workers(count):
@@ -108,6 +128,8 @@ def cached_record(cache, notebook):
         return None
 
 
+#: The terminal colour codes of an IPython traceback, which nbclient's error text carries.
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
 #: What ``main`` prints before it executes any page, and where a build log says how many it executed.
 ANNOUNCEMENT = "execute_pages: {count} pages to execute, {workers} at a time"
 
@@ -122,7 +144,6 @@ def announced_count(log):
 
 def main():
     from jupyter_cache import get_cache
-    from jupyter_cache.base import CacheBundleIn
 
     settings = yaml.safe_load((ROOT / "_config.yml").read_text())["execute"]
     cache = get_cache(str(ROOT / settings["cache"]))
@@ -132,24 +153,51 @@ def main():
         print("execute_pages: every page is in the execution cache")
         return 0
     print(ANNOUNCEMENT.format(count=len(missing), workers=workers(len(missing))), flush=True)
-    start = time.perf_counter()
-    for path, notebook, seconds, error in execute(missing, settings.get("timeout", 30)):
-        name = path.relative_to(ROOT)
-        if notebook is None:
-            last = error.strip().splitlines()[-1] if error else "no reason given"
-            print(f"  {name}: failed after {seconds:.1f} s ({last}); the build executes it again", flush=True)
-            continue
-        record = cache.add_nb_to_project(str(path), read_data={"type": "plugin", "name": "myst_nb_md"})
-        stored = cache.cache_notebook_bundle(CacheBundleIn(notebook, record.uri, data={"execution_seconds": seconds}),
-                                             check_validity=False, overwrite=True)
-        found = cached_record(cache, pages[path])
-        if found is None or found.pk != stored.pk:
-            print(f"  {name}: executed in {seconds:.1f} s, but the build will not find it in the cache "
-                  "and executes it again", flush=True)
-            continue
-        print(f"  {name}: {seconds:.1f} s", flush=True)
+    start, done = time.perf_counter(), 0
+    signal.signal(signal.SIGTERM, _stop)
+    try:
+        for result in execute(missing, settings.get("timeout", 30)):
+            _store(cache, pages, *result)
+            done += 1
+    except (KeyboardInterrupt, Stopped) as stop:
+        number = getattr(stop, "signal", signal.SIGINT)
+        print(f"execute_pages: stopped by {signal.Signals(number).name} after {done} of {len(missing)} pages "
+              "(those are cached)", flush=True)
+        return 128 + number
     print(f"execute_pages: {time.perf_counter() - start:.0f} s wall for {len(missing)} pages", flush=True)
     return 0
+
+
+class Stopped(Exception):
+    """SIGTERM reached :func:`main` (``signal``: its number)."""
+
+    def __init__(self, number):
+        super().__init__(number)
+        self.signal = number
+
+
+def _stop(number, frame):
+    raise Stopped(number)
+
+
+def _store(cache, pages, path, notebook, seconds, error):
+    """Cache one executed page as myst-nb would, and say how it went."""
+    from jupyter_cache.base import CacheBundleIn
+
+    name = path.relative_to(ROOT)
+    if notebook is None:
+        last = _ANSI.sub("", error).strip().splitlines()[-1] if error else "no reason given"
+        print(f"  {name}: failed after {seconds:.1f} s ({last}); the build executes it again", flush=True)
+        return
+    record = cache.add_nb_to_project(str(path), read_data={"type": "plugin", "name": "myst_nb_md"})
+    stored = cache.cache_notebook_bundle(CacheBundleIn(notebook, record.uri, data={"execution_seconds": seconds}),
+                                         check_validity=False, overwrite=True)
+    found = cached_record(cache, pages[path])
+    if found is None or found.pk != stored.pk:
+        print(f"  {name}: executed in {seconds:.1f} s, but the build will not find it in the cache "
+              "and executes it again", flush=True)
+        return
+    print(f"  {name}: {seconds:.1f} s", flush=True)
 
 
 if __name__ == "__main__":
