@@ -101,7 +101,9 @@ def execute(pages, timeout):
     starts after it, and the exception goes on.
     """
     pages = sorted(pages, key=lambda path: path.stat().st_size, reverse=True)
-    with ProcessPoolExecutor(max_workers=workers(len(pages))) as pool:
+    # the workers keep SIGTERM's default (they would inherit main's handler): the script handles it
+    with ProcessPoolExecutor(max_workers=workers(len(pages)), initializer=signal.signal,
+                             initargs=(signal.SIGTERM, signal.SIG_DFL)) as pool:
         futures = [pool.submit(execute_page, path, timeout) for path in pages]
         try:
             for future in as_completed(futures):
