@@ -170,8 +170,9 @@ def main():
     return 0
 
 
-class Stopped(Exception):
-    """SIGTERM reached :func:`main` (``signal``: its number)."""
+class Stopped(BaseException):
+    """SIGTERM reached :func:`main` (``signal``: its number); like KeyboardInterrupt, no ``except Exception``
+    (in jupyter-cache, say, while a page is being cached) takes it for an error of its own."""
 
     def __init__(self, number):
         super().__init__(number)
