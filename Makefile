@@ -84,13 +84,15 @@ pdf: $(STAMP) pdf-tools
 	$(BIN)/python book/_ext/execute_pages.py
 	$(BIN)/jupyter-book build . --builder singlehtml -n -W --keep-going
 	@echo "$(SOURCE_HASH)" > _build/.source-hash && echo "$(EXTENSIONS_HASH)" > _build/.extensions-hash
-	$(BIN)/python book/print/print_pdf.py _build/singlehtml _build/pdf/closedloop.pdf
-	@# each translation, from its own single-page build: _build/pdf/closedloop.<language>.pdf
-	@for language in $(LANGUAGES); do \
+	@# the English PDF prints while each translation builds its own single page (Chromium waits on its
+	@# page's scripts, Sphinx on the processor), then each translation's: _build/pdf/closedloop.<language>.pdf
+	@$(BIN)/python book/print/print_pdf.py _build/singlehtml _build/pdf/closedloop.pdf & english=$$!; \
+	for language in $(LANGUAGES); do \
 	  $(call EDITION_BUILD,$$language,--builder singlehtml) && \
 	  $(BIN)/python book/print/print_pdf.py _build/$$language/_build/singlehtml _build/pdf/closedloop.$$language.pdf \
-	  || exit 1; \
-	done
+	  || { wait $$english; exit 1; }; \
+	done; \
+	wait $$english
 
 # make pdf needs chromium and poppler-utils; install them when missing (root on CI).
 pdf-tools:
