@@ -25,8 +25,9 @@ can be given the same port, and one of them dies.
 Ctrl-C (SIGINT) or SIGTERM stops it at once: no page starts after it, the workers are ended, and
 their kernels end with them (ipykernel leaves when its parent process does); the pages already
 executed stay in the cache.  Without this, a stopped run went on: nbclient's own handler of both
-signals in a worker only shuts that page's kernel down, the worker then took the next page, and
-the pool waited for all of them.
+signals in a worker only shuts that page's kernel down, and the worker takes the next page; after
+a Ctrl-C the script waited for every page still to come, and a SIGTERM ended the script alone,
+its workers going on without it.
 
     .venv/bin/python book/_ext/execute_pages.py        # make book and make pdf run it
 """
