@@ -84,8 +84,8 @@ pdf: $(STAMP) pdf-tools
 	$(BIN)/python book/_ext/execute_pages.py
 	$(BIN)/jupyter-book build . --builder singlehtml -n -W --keep-going
 	@echo "$(SOURCE_HASH)" > _build/.source-hash && echo "$(EXTENSIONS_HASH)" > _build/.extensions-hash
-	@# the English PDF prints while each translation builds its own single page (Chromium waits on its
-	@# page's scripts, Sphinx on the processor), then each translation's: _build/pdf/closedloop.<language>.pdf
+	@# the English PDF prints while each translation builds its own single page (one after the other, the
+	@# steps left the processor idle half the time), then each translation's: _build/pdf/closedloop.<language>.pdf
 	@$(BIN)/python book/print/print_pdf.py _build/singlehtml _build/pdf/closedloop.pdf & english=$$!; \
 	for language in $(LANGUAGES); do \
 	  $(call EDITION_BUILD,$$language,--builder singlehtml) && \
