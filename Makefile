@@ -86,7 +86,9 @@ pdf: $(STAMP) pdf-tools
 	@echo "$(SOURCE_HASH)" > _build/.source-hash && echo "$(EXTENSIONS_HASH)" > _build/.extensions-hash
 	@# the English PDF prints while each translation builds its own single page (one after the other, the
 	@# steps left the processor idle half the time), then each translation's: _build/pdf/closedloop.<language>.pdf
+	@# (a background job starts with SIGINT ignored: a Ctrl-C or SIGTERM that ends the recipe ends it too)
 	@$(BIN)/python book/print/print_pdf.py _build/singlehtml _build/pdf/closedloop.pdf & english=$$!; \
+	trap 'kill $$english 2>/dev/null' INT TERM; \
 	for language in $(LANGUAGES); do \
 	  $(call EDITION_BUILD,$$language,--builder singlehtml) && \
 	  $(BIN)/python book/print/print_pdf.py _build/$$language/_build/singlehtml _build/pdf/closedloop.$$language.pdf \

@@ -10,9 +10,11 @@ real page and look it up exactly as the build does.
 import importlib.util
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -125,7 +127,7 @@ def test_a_failing_page_is_named_with_its_error_in_plain_text_and_not_cached(tmp
                          ids=["ctrl-c", "sigterm"])
 def test_a_signal_stops_the_execution_with_its_workers_and_kernels(tmp_path, signum, to_group):
     """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) or SIGTERM to the script alone,
-    while both pages run: it stops at once, says so, and leaves no worker and no kernel behind.  Before,
+    while the pages run: it stops at once, says so, and leaves no worker, no kernel and no socket folder.  Before,
     nbclient's handler in each worker shut only the page's kernel down, and the workers went on to the
     next pages.  (After a Ctrl-C the kernels may log their end, a KeyboardInterrupt or a closed socket: the
     worker's nbclient handler interrupts its kernel and starts to shut it down as the worker is killed.)"""
@@ -133,18 +135,21 @@ def test_a_signal_stops_the_execution_with_its_workers_and_kernels(tmp_path, sig
 
     sleeping = 'import pathlib\nimport time\n\npathlib.Path("{}.running").touch()\ntime.sleep(120)'
     command = small_book(tmp_path, {name: sleeping.format(name) for name in ("one", "two")})
+    running = min(2, os.cpu_count() or 1)                 # the pages run a core each
+    # where the kernels' socket folders go: a short path, as a Unix socket's may not exceed 107 bytes
+    temporary = Path(tempfile.mkdtemp(prefix="cl-"))
     # SIGINT at its default, as in a terminal (a shell's background job starts with it ignored)
-    process = subprocess.Popen(command, cwd=tmp_path,
+    process = subprocess.Popen(command, cwd=tmp_path, env={**os.environ, "TMPDIR": str(temporary)},
                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     seen = []
     try:
         deadline = time.monotonic() + 90
-        while not all((tmp_path / f"{name}.running").exists() for name in ("one", "two")):
-            assert time.monotonic() < deadline and process.poll() is None, "the two pages did not start"
+        while sum((tmp_path / f"{name}.running").exists() for name in ("one", "two")) < running:
+            assert time.monotonic() < deadline and process.poll() is None, "the pages did not start"
             time.sleep(0.2)
-        seen = psutil.Process(process.pid).children(recursive=True)      # two workers, each with its kernel
-        assert sum("ipykernel_launcher" in " ".join(_command(p)) for p in seen) == 2
+        seen = psutil.Process(process.pid).children(recursive=True)      # the workers, each with its kernel
+        assert sum("ipykernel_launcher" in " ".join(_command(p)) for p in seen) == running
         if to_group:
             os.killpg(process.pid, signum)
         else:
@@ -155,12 +160,29 @@ def test_a_signal_stops_the_execution_with_its_workers_and_kernels(tmp_path, sig
             os.killpg(process.pid, signal.SIGKILL)
         except ProcessLookupError:
             pass
+        leftovers = list(temporary.iterdir())
+        shutil.rmtree(temporary, ignore_errors=True)
     assert process.returncode == 128 + signum, out
-    assert f"execute_pages: stopped by {signal.Signals(signum).name} after 0 of 2 pages" in out
+    assert f"execute_pages: stopped by {signal.Signals(signum).name}; 0 of 2 pages executed and cached" in out
     # no traceback of the script's own, nor of its pool's thread (the kernels may log their end: see above)
     assert 'execute_pages.py", line' not in out and "concurrent/futures" not in out, out.replace("\n", "\n| ")
     _, alive = psutil.wait_procs(seen, timeout=10)        # the kernels leave when their workers do
+    alive = [p for p in alive if _status(p) != psutil.STATUS_ZOMBIE]    # ended, not yet reaped by an init
     assert not alive, f"outlived the script: {[' '.join(_command(p)) for p in alive]}"
+    assert leftovers == [], "the kernels' socket folders were left behind"
+
+
+def test_a_stop_while_a_page_is_stored_comes_once_it_is_stored(execute_pages):
+    """A record without its notebook in jupyter-cache would be taken for the page by every later build."""
+    stops, done = execute_pages._Stops(), []
+    with pytest.raises(execute_pages.Stopped) as raised:
+        with stops.held_back():
+            stops.handler(signal.SIGTERM, None)            # as the signal calls it, while the page is stored
+            done.append("stored")
+    assert done == ["stored"] and raised.value.signal == signal.SIGTERM
+    with pytest.raises(execute_pages.Stopped) as raised:
+        execute_pages._Stops().handler(signal.SIGINT, None)    # between pages: at once
+    assert raised.value.signal == signal.SIGINT
 
 
 def _command(process):
@@ -170,3 +192,12 @@ def _command(process):
         return process.cmdline()
     except psutil.Error:                                  # it has just ended
         return []
+
+
+def _status(process):
+    import psutil
+
+    try:
+        return process.status()
+    except psutil.Error:
+        return psutil.STATUS_DEAD

@@ -24,7 +24,7 @@ can be given the same port, and one of them dies.
 
 Ctrl-C (SIGINT) or SIGTERM stops it at once: no page starts after it, the workers are ended, and
 their kernels end with them (ipykernel leaves when its parent process does); the pages already
-executed stay in the cache.  Without this, a stopped run went on: nbclient's own handler of both
+executed stay in the cache (a page being stored is stored first).  Without this, a stopped run went on: nbclient's own handler of both
 signals in a worker only shuts that page's kernel down, and the worker takes the next page; after
 a Ctrl-C the script waited for every page still to come, and a SIGTERM ended the script alone,
 its workers going on without it.
@@ -34,6 +34,7 @@ its workers going on without it.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import re
@@ -67,12 +68,13 @@ def read_page(path):
                                        path=str(path))
 
 
-def execute_page(path, timeout):
+def execute_page(path, timeout, folder=None):
     """``(path, executed notebook or None, seconds, error text or None)`` of one page.
 
     As jupyter-cache's ``single_nb_execution`` (``nbclient.execute`` in the page's folder, the
     notebook's own ``execution`` metadata overriding the timeout), with a kernel of our own on Unix
-    sockets, which the client shuts down at the end (``cleanup_kc``).
+    sockets in a temporary folder (inside ``folder`` if given), which the client shuts down at the
+    end (``cleanup_kc``).
     """
     from jupyter_client.manager import AsyncKernelManager
     from nbclient import NotebookClient
@@ -80,9 +82,10 @@ def execute_page(path, timeout):
 
     notebook = read_page(path)
     options = notebook.metadata.get("execution", {})
-    with tempfile.TemporaryDirectory(prefix="closedloop-kernel-") as folder:
+    # short names: a Unix socket's path may not exceed 107 bytes
+    with tempfile.TemporaryDirectory(prefix="closedloop-kernel-" if folder is None else "k-", dir=folder) as sockets:
         kernel = AsyncKernelManager(kernel_name=notebook.metadata.kernelspec.name, transport="ipc",
-                                    connection_file=os.path.join(folder, "kernel.json"))
+                                    connection_file=os.path.join(sockets, "kernel.json"))
         client = NotebookClient(notebook, timeout=options.get("timeout", timeout),
                                 allow_errors=options.get("allow_errors", False), record_timing=False,
                                 resources={"metadata": {"path": str(path.parent)}}, km=kernel)
@@ -97,16 +100,16 @@ def execute_page(path, timeout):
 def execute(pages, timeout):
     """``execute_page`` of every page, a core each, the long pages first: its results as they come.
 
-    If the caller is stopped while it waits (KeyboardInterrupt, or the exception of :func:`main`'s
-    SIGTERM handler) or stops iterating, the workers are killed (their kernels follow them), no page
-    starts after it, and the exception goes on.
+    If the caller is stopped while it waits (KeyboardInterrupt, or :class:`Stopped` from :func:`main`'s
+    handler) or stops iterating, the workers are killed (their kernels follow them), no page
+    starts after it, and the exception goes on.  The kernels' socket folders are in one temporary
+    folder of this process, removed at the end: a killed worker cannot remove its own.
     """
     pages = sorted(pages, key=lambda path: path.stat().st_size, reverse=True)
-    # the workers keep SIGTERM's default (they would inherit main's handler): the script handles it
-    with ProcessPoolExecutor(max_workers=workers(len(pages)), initializer=signal.signal,
-                             initargs=(signal.SIGTERM, signal.SIG_DFL)) as pool:
-        futures = [pool.submit(execute_page, path, timeout) for path in pages]
-        try:
+    with tempfile.TemporaryDirectory(prefix="closedloop-") as folder, \
+            ProcessPoolExecutor(max_workers=workers(len(pages)), initializer=_worker_signals) as pool:
+        try:                                # from the first submission: it starts the workers
+            futures = [pool.submit(execute_page, path, timeout, folder) for path in pages]
             for future in as_completed(futures):
                 yield future.result()
         except BaseException:
@@ -115,6 +118,14 @@ def execute(pages, timeout):
             for worker in multiprocessing.active_children():
                 worker.kill()
             raise
+
+
+def _worker_signals():
+    """A worker's SIGINT and SIGTERM as Python's defaults (unless ignored): forked, it inherits :func:`main`'s
+    handler, which is the script's alone; the script ends its workers itself."""
+    for number, default in ((signal.SIGINT, signal.default_int_handler), (signal.SIGTERM, signal.SIG_DFL)):
+        if signal.getsignal(number) is not signal.SIG_IGN:
+            signal.signal(number, default)
 
 
 def workers(count):
@@ -156,43 +167,65 @@ def main():
         print("execute_pages: every page is in the execution cache")
         return 0
     print(ANNOUNCEMENT.format(count=len(missing), workers=workers(len(missing))), flush=True)
-    start, done = time.perf_counter(), 0
-    signal.signal(signal.SIGTERM, _stop)
+    start, cached, stops = time.perf_counter(), 0, _Stops()
+    for number in (signal.SIGINT, signal.SIGTERM):
+        if signal.getsignal(number) is not signal.SIG_IGN:       # nohup's stays ignored
+            signal.signal(number, stops.handler)
     try:
         for result in execute(missing, settings.get("timeout", 30)):
-            _store(cache, pages, *result)
-            done += 1
-    except (KeyboardInterrupt, Stopped) as stop:
-        number = getattr(stop, "signal", signal.SIGINT)
-        print(f"execute_pages: stopped by {signal.Signals(number).name} after {done} of {len(missing)} pages "
-              "(those are cached)", flush=True)
-        return 128 + number
+            with stops.held_back():
+                cached += _store(cache, pages, *result)
+    except Stopped as stop:
+        print(f"execute_pages: stopped by {signal.Signals(stop.signal).name}; {cached} of {len(missing)} pages "
+              "executed and cached", flush=True)
+        return 128 + stop.signal
     print(f"execute_pages: {time.perf_counter() - start:.0f} s wall for {len(missing)} pages", flush=True)
     return 0
 
 
 class Stopped(BaseException):
-    """SIGTERM reached :func:`main` (``signal``: its number); like KeyboardInterrupt, no ``except Exception``
-    (in jupyter-cache, say, while a page is being cached) takes it for an error of its own."""
+    """SIGINT or SIGTERM reached :func:`main` (``signal``: its number); like KeyboardInterrupt, no
+    ``except Exception`` on the way takes it for an error of its own."""
 
     def __init__(self, number):
         super().__init__(number)
         self.signal = number
 
 
-def _stop(number, frame):
-    raise Stopped(number)
+class _Stops:
+    """:func:`main`'s handler of SIGINT and SIGTERM: it raises :class:`Stopped`, except while a page is being
+    stored (:meth:`held_back`), which is finished first.  A stop while jupyter-cache writes would leave a record
+    without its notebook, which every later build would take for the page."""
+
+    def __init__(self):
+        self.storing, self.pending = False, None
+
+    def handler(self, number, frame):
+        if self.storing:
+            self.pending = number
+        else:
+            raise Stopped(number)
+
+    @contextlib.contextmanager
+    def held_back(self):
+        self.storing = True
+        try:
+            yield
+        finally:
+            self.storing = False
+        if self.pending is not None:
+            raise Stopped(self.pending)
 
 
 def _store(cache, pages, path, notebook, seconds, error):
-    """Cache one executed page as myst-nb would, and say how it went."""
+    """Cache one executed page as myst-nb would, and say how it went: True if the build will find it."""
     from jupyter_cache.base import CacheBundleIn
 
     name = path.relative_to(ROOT)
     if notebook is None:
         last = _ANSI.sub("", error).strip().splitlines()[-1] if error else "no reason given"
         print(f"  {name}: failed after {seconds:.1f} s ({last}); the build executes it again", flush=True)
-        return
+        return False
     record = cache.add_nb_to_project(str(path), read_data={"type": "plugin", "name": "myst_nb_md"})
     stored = cache.cache_notebook_bundle(CacheBundleIn(notebook, record.uri, data={"execution_seconds": seconds}),
                                          check_validity=False, overwrite=True)
@@ -200,8 +233,9 @@ def _store(cache, pages, path, notebook, seconds, error):
     if found is None or found.pk != stored.pk:
         print(f"  {name}: executed in {seconds:.1f} s, but the build will not find it in the cache "
               "and executes it again", flush=True)
-        return
+        return False
     print(f"  {name}: {seconds:.1f} s", flush=True)
+    return True
 
 
 if __name__ == "__main__":
