@@ -102,7 +102,8 @@ def small_book(folder, pages):
     """A book in ``folder`` of ``pages`` (``{name: code of its one cell}``), with its own copy of
     execute_pages.py (whose root is the book's folder) and an empty execution cache: the command that runs it."""
     (folder / "book" / "_ext").mkdir(parents=True)
-    (folder / "book" / "_ext" / "execute_pages.py").write_text((ROOT / "book" / "_ext" / "execute_pages.py").read_text())
+    script = ROOT / "book" / "_ext" / "execute_pages.py"
+    (folder / "book" / "_ext" / "execute_pages.py").write_text(script.read_text())
     (folder / "_config.yml").write_text("execute:\n  cache: _build/.jupyter_cache\n  timeout: 300\n")
     (folder / "_toc.yml").write_text("format: jb-book\nroot: intro\nparts:\n  - chapters:\n"
                                      + "".join(f"    - file: {name}\n" for name in pages))

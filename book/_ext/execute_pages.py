@@ -24,10 +24,10 @@ can be given the same port, and one of them dies.
 
 Ctrl-C (SIGINT) or SIGTERM stops it at once: no page starts after it, the workers are ended, and
 their kernels end with them (ipykernel leaves when its parent process does); the pages already
-executed stay in the cache (a page being stored is stored first).  Without this, a stopped run went on: nbclient's own handler of both
-signals in a worker only shuts that page's kernel down, and the worker takes the next page; after
-a Ctrl-C the script waited for every page still to come, and a SIGTERM ended the script alone,
-its workers going on without it.
+executed stay in the cache (a page being stored is stored first).  Without this, a stopped run
+went on: nbclient's own handler of both signals in a worker only shuts that page's kernel down,
+and the worker takes the next page; after a Ctrl-C the script waited for every page still to
+come, and a SIGTERM ended the script alone, its workers going on without it.
 
     .venv/bin/python book/_ext/execute_pages.py        # make book and make pdf run it
 """
@@ -82,8 +82,8 @@ def execute_page(path, timeout, folder=None):
 
     notebook = read_page(path)
     options = notebook.metadata.get("execution", {})
-    # short names: a Unix socket's path may not exceed 107 bytes
-    with tempfile.TemporaryDirectory(prefix="closedloop-kernel-" if folder is None else "k-", dir=folder) as sockets:
+    prefix = "closedloop-kernel-" if folder is None else "k-"      # short: a Unix socket's path has <= 107 bytes
+    with tempfile.TemporaryDirectory(prefix=prefix, dir=folder) as sockets:
         kernel = AsyncKernelManager(kernel_name=notebook.metadata.kernelspec.name, transport="ipc",
                                     connection_file=os.path.join(sockets, "kernel.json"))
         client = NotebookClient(notebook, timeout=options.get("timeout", timeout),
