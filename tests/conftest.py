@@ -176,7 +176,8 @@ class BackgroundBuild:
         if self.process is not None and self.process.poll() is None:
             os.killpg(self.process.pid, signal.SIGTERM)
             self.process.wait(timeout=30)
-            try:                               # what outlived make in its group (execute_pages' workers)
+            try:                               # anything that outlived make in its group (execute_pages ends
+                                               # its own workers on SIGTERM; this is the net behind it)
                 os.killpg(self.process.pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass

@@ -18,6 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import psutil
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -132,8 +133,6 @@ def test_a_signal_stops_the_execution_with_its_workers_and_kernels(tmp_path, sig
     nbclient's handler in each worker shut only the page's kernel down, and the workers went on to the
     next pages.  (After a Ctrl-C the kernels may log their end, a KeyboardInterrupt or a closed socket: the
     worker's nbclient handler interrupts its kernel and starts to shut it down as the worker is killed.)"""
-    import psutil
-
     sleeping = 'import pathlib\nimport time\n\npathlib.Path("{}.running").touch()\ntime.sleep(120)'
     command = small_book(tmp_path, {name: sleeping.format(name) for name in ("one", "two")})
     running = min(2, os.cpu_count() or 1)                 # the pages run a core each
@@ -187,8 +186,6 @@ def test_a_stop_while_a_page_is_stored_comes_once_it_is_stored(execute_pages):
 
 
 def _command(process):
-    import psutil
-
     try:
         return process.cmdline()
     except psutil.Error:                                  # it has just ended
@@ -196,8 +193,6 @@ def _command(process):
 
 
 def _status(process):
-    import psutil
-
     try:
         return process.status()
     except psutil.Error:
