@@ -541,11 +541,7 @@ def _evaluate_held_steps(rhs, held, stages, times, states):
     coefficients = np.concatenate((continuous_extensions(rhs, ta, ya, tb, yb, K), ya[None]), axis=0)
     coefficients = coefficients.transpose(1, 2, 0).copy()
     counts = [step.stop - step.start for step in held]
-    start, stop = held[0].start, held[-1].stop
-    if stop - start == sum(counts):         # no output at a step end between them: one slice
-        x = times[start:stop].copy()
-    else:
-        x = np.concatenate([times[step.start:step.stop] for step in held])   # the held outputs, in order
+    x = np.concatenate([times[step.start:step.stop] for step in held])       # the held outputs, in order
     x -= np.repeat(ta, counts)
     x /= np.repeat(h, counts)                                                # fractions of their steps
     # The basis a group of steps at a time (the steps from k on that hold <= _GROUP_OUTPUTS outputs, or
