@@ -77,7 +77,7 @@ translations: $(STAMP)
 	$(BIN)/sphinx-intl update -p _build/gettext-build/_build/gettext -d locales $(foreach language,$(LANGUAGES),-l $(language))
 
 # The book as one PDF: Jupyter Book's single-page build (the same pages and numbering as the site,
-# from the same execution cache) printed by Debian's chromium, solutions left out
+# from the same execution cache) printed by Debian's headless Chromium, solutions left out
 # (book/print/print_pdf.py; poppler-utils' pdfinfo finds the contents' page numbers).
 pdf: $(STAMP) pdf-tools
 	$(FRESH_CACHE)
@@ -96,17 +96,19 @@ pdf: $(STAMP) pdf-tools
 	done; \
 	wait $$english
 
-# make pdf needs chromium and poppler-utils; install them when missing (root on CI).
+# make pdf needs Chromium's headless shell and poppler-utils; install them when missing (root on CI).
+# (print_pdf.py takes Debian's whole chromium where the headless shell is missing: the same pages, twice the CPU.)
 pdf-tools:
-	@command -v chromium >/dev/null 2>&1 && command -v pdfinfo >/dev/null 2>&1 \
-	  || { apt-get update -qq && apt-get install -y -qq chromium poppler-utils; } >/dev/null 2>&1 \
-	  || echo "note: chromium or poppler-utils could not be installed here; make pdf needs both"
+	@command -v chromium-headless-shell >/dev/null 2>&1 && command -v pdfinfo >/dev/null 2>&1 \
+	  || { apt-get update -qq && apt-get install -y -qq chromium-headless-shell poppler-utils; } >/dev/null 2>&1 \
+	  || echo "note: chromium-headless-shell or poppler-utils could not be installed here; make pdf needs both"
 
-# The site test drives Debian's chromium; install it when missing (root on CI). If that is not
-# possible, the test says so and is skipped.
+# The site test drives the same browser; install it when missing (root on CI). If there is no Chromium at
+# all, the test says so and is skipped.
 browser:
-	@command -v chromium >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq chromium; } >/dev/null 2>&1 \
-	  || echo "note: chromium could not be installed here; the site test will be skipped and say so"
+	@command -v chromium-headless-shell >/dev/null 2>&1 \
+	  || { apt-get update -qq && apt-get install -y -qq chromium-headless-shell; } >/dev/null 2>&1 \
+	  || echo "note: chromium-headless-shell could not be installed here; the site test needs it (or chromium)"
 
 test: $(STAMP) browser pdf-tools
 	$(BIN)/python -m pytest

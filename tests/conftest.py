@@ -230,15 +230,20 @@ def built_site(request):
 def built_pdf(request):
     """``_build/pdf/closedloop.pdf``, made once for the session by ``make -s pdf`` after the book.
 
-    Skipped, and says so, where the PDF cannot be made or read: without Debian's chromium and poppler-utils.
+    Skipped, and says so, where the PDF cannot be made or read: without Debian's Chromium (its headless shell,
+    or the whole browser) and poppler-utils.
     """
     import shutil
+    import sys
 
-    missing = [tool for tool in ("chromium", "pdfinfo", "pdftotext", "pdfimages", "pdftohtml", "pdftoppm")
-               if shutil.which(tool) is None]
+    sys.path.insert(0, str(ROOT / "book" / "print"))
+    from print_pdf import CHROMIUM                  # the browser make pdf prints with
+
+    missing = ([] if Path(CHROMIUM).exists() else ["chromium-headless-shell"]) + [
+        tool for tool in ("pdfinfo", "pdftotext", "pdfimages", "pdftohtml", "pdftoppm") if shutil.which(tool) is None]
     if missing:
-        pytest.skip(f"the PDF was NOT made or checked: {', '.join(missing)} not installed (Debian's chromium "
-                    "and poppler-utils; make test tries to install them)")
+        pytest.skip(f"the PDF was NOT made or checked: {', '.join(missing)} not installed (Debian's "
+                    "chromium-headless-shell and poppler-utils; make test tries to install them)")
     _wait_for(request, "pdf", PDF_LOG)
     pdf = ROOT / "_build" / "pdf" / "closedloop.pdf"
     assert pdf.exists(), f"no PDF at {pdf}"

@@ -29,7 +29,7 @@ running ``make book``.
 import functools
 import http.server
 import os
-import shutil
+import sys
 import threading
 from pathlib import Path
 
@@ -39,9 +39,9 @@ from ._toc import toc_pages
 
 ROOT = Path(__file__).resolve().parents[1]
 HTML = ROOT / "_build" / "html"
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-CHROMIUM_FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+# The browser of the PDF's print, with its flags: Debian's headless shell of Chromium, else its whole browser.
+sys.path.insert(0, str(ROOT / "book" / "print"))
+from print_pdf import CHROMIUM, CHROMIUM_FLAGS  # noqa: E402
 #: The longest cell output a page may show, in rendered lines (a wrapped line counts each time).
 MAX_OUTPUT_LINES = 20
 #: Text the build uses to cut solutions out; a reader must never see it.
@@ -58,7 +58,7 @@ FULL_SCREENSHOTS = os.environ.get("CLOSEDLOOP_FULL_SCREENSHOTS") == "1"
 def site(built_site):
     if not Path(CHROMIUM).exists():
         pytest.skip(f"Chromium is not installed ({CHROMIUM} not found), so the built site was NOT "
-                    "checked in a browser: install Debian's chromium package (make test tries to)")
+                    "checked in a browser: install Debian's chromium-headless-shell package (make test tries to)")
 
     class Quiet(http.server.SimpleHTTPRequestHandler):
         def log_message(self, *args):
