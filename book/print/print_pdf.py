@@ -40,9 +40,10 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 #: Debian's headless shell of Chromium (package chromium-headless-shell: Chromium's old headless mode, which
 #: Playwright also uses for headless runs), else Debian's whole browser (package chromium). The same engine
-#: and the same PDFs (the same pages and text); the whole browser also runs a renderer for its own window's
-#: controls, so it took twice the CPU time per page of the site test (measured over 30 pages: 82 s against
-#: 42 s on two cores, 44 s against 30 s wall). The site test (tests/test_site.py) uses this one too.
+#: and the same PDF (its pages and text); but the whole browser ran a second busy renderer
+#: (``--top-chrome-webui``) beside each page's, and took twice the CPU time for the site test's pages
+#: (30 pages: 82 s against 42 s of CPU, 44 s against 30 s wall). The site test (tests/test_site.py) uses
+#: this one too.
 CHROMIUM = shutil.which("chromium-headless-shell") or shutil.which("chromium") or "/usr/bin/chromium-headless-shell"
 CHROMIUM_FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                   "--disable-background-networking", "--disable-component-update", "--disable-sync"]
