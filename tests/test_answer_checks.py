@@ -43,6 +43,20 @@ def test_any_answer_gets_one_line_and_no_traceback(check, answer, capsys):
         assert not isinstance(answer, (str, bool)) or check.compare is checking.choice
 
 
+@pytest.mark.parametrize("label", ["1.5", "13.4"])      # ch01.same_configuration, ch13.same_angles
+def test_an_angle_check_takes_finite_numbers_only_and_warns_of_nothing(label, capsys, recwarn):
+    # found by the test above: an infinite angle in 13.4 gave NaN cosines and a RuntimeWarning beside the
+    # verdict; [True, True] passed both checks' comparison as numbers
+    check = next(check for check in CHECKS if check.label == label)
+    size = np.size(check.expected_value())
+    for answer in ([math.inf] * size, [math.nan] * size, True, [True] * size, [1.0] * (size + 1)):
+        right, line = verdict(check, answer, capsys)
+        assert not right and "expected" in line and "not right yet" not in line, (answer, line)
+    assert [str(warning.message) for warning in recwarn] == []
+    turned = np.asarray(check.expected_value(), dtype=float) + 2 * math.pi * (np.arange(size) == 0)
+    assert verdict(check, list(turned), capsys)[0]                          # the first angle is taken modulo 2 pi
+
+
 NUMERIC = [check for check in CHECKS if np.ndim(check.expected_value()) == 0
            and isinstance(check.expected_value(), (int, float, np.number)) and check.compare is not checking.choice]
 

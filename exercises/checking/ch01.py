@@ -7,7 +7,7 @@ import numpy as np
 from closedloop import consistent_initial_state
 from closedloop.slider_crank import slider_crank_model, slider_crank_system
 
-from . import Check, another_letter, choice, make_check, numeric, scaled
+from . import Check, _numbers, another_letter, choice, make_check, numeric, scaled
 
 
 def _degrees_of_freedom():
@@ -21,13 +21,18 @@ def _dead_centre():
 
 
 def same_configuration(rtol=1e-9, atol=1e-12):
-    """Compare [psi, x_C] pairs with psi taken modulo 2 pi: compare [cos psi, sin psi, x_C]."""
+    """Compare [psi, x_C] pairs with psi taken modulo 2 pi: compare [cos psi, sin psi, x_C].
+
+    The answer is first taken as every numeric answer is (:func:`_numbers`: two finite numbers), so that
+    ``[True, True]`` is the wrong kind of answer, not the pair (1 rad, 1 m).
+    """
     compare = numeric(rtol, atol)
 
     def configuration(pair):
-        psi, x_C = np.asarray(pair, dtype=float)
+        psi, x_C = pair
         return [math.cos(psi), math.sin(psi), x_C]
-    return lambda answer, expected: compare(configuration(answer), configuration(expected))
+    return lambda answer, expected: compare(configuration(_numbers(answer, expected)),
+                                            configuration(np.asarray(expected, dtype=float)))
 
 
 def _left_branch_x():
