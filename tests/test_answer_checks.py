@@ -43,10 +43,11 @@ def test_any_answer_gets_one_line_and_no_traceback(check, answer, capsys):
         assert not isinstance(answer, (str, bool)) or check.compare is checking.choice
 
 
-@pytest.mark.parametrize("label", ["1.5", "13.4"])      # ch01.same_configuration, ch13.same_angles
+@pytest.mark.parametrize("label", ["1.5", "13.4"])      # checking.same_angles: one angle of two, and all
 def test_an_angle_check_takes_finite_numbers_only_and_warns_of_nothing(label, capsys, recwarn):
     # found by the test above: an infinite angle in 13.4 gave NaN cosines and a RuntimeWarning beside the
-    # verdict; [True, True] passed both checks' comparison as numbers
+    # verdict; [True, True] passed both checks' comparison as numbers (their comparators then bypassed
+    # checking.as_numbers)
     check = next(check for check in CHECKS if check.label == label)
     size = np.size(check.expected_value())
     for answer in ([math.inf] * size, [math.nan] * size, True, [True] * size, [1.0] * (size + 1)):
@@ -55,6 +56,21 @@ def test_an_angle_check_takes_finite_numbers_only_and_warns_of_nothing(label, ca
     assert [str(warning.message) for warning in recwarn] == []
     turned = np.asarray(check.expected_value(), dtype=float) + 2 * math.pi * (np.arange(size) == 0)
     assert verdict(check, list(turned), capsys)[0]                          # the first angle is taken modulo 2 pi
+
+
+@pytest.mark.parametrize("label, answers", [
+    ("7.9", ["1e-8", True, math.inf, math.nan, [1e-8]]),                           # ch07._same_decade
+    ("3.5", [["-1+2j", "-1-2j"], [True, True], [math.inf, 1.0], [1.0, 2.0, 3.0]]),  # ch03.same_roots
+    ("10.5", ["abc", "l1", True, None]),                                   # ch10.same_function_of_lengths
+])
+def test_the_comparators_of_their_own_refuse_text_bools_and_non_finite_numbers(label, answers, capsys):
+    # a text "1e-8" was read as the number by 7.9's own comparator, and could be marked right; 3.5's parsed
+    # text as complex numbers: both now take the answer through checking.as_numbers, as numeric() does;
+    # 10.5's took "abc" for a symbol (now refused as symbolic() refuses it: checking.not_an_expression)
+    check = next(check for check in CHECKS if check.label == label)
+    for answer in answers:
+        right, line = verdict(check, answer, capsys)
+        assert not right and "expected" in line and "not right yet" not in line, (answer, line)
 
 
 NUMERIC = [check for check in CHECKS if np.ndim(check.expected_value()) == 0

@@ -23,8 +23,8 @@ import os
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-__all__ = ["Check", "NotAnswered", "WrongKind", "numeric", "choice", "symbolic", "scaled", "another_letter",
-           "make_check", "LOG_VARIABLE", "VERDICTS"]
+__all__ = ["Check", "NotAnswered", "WrongKind", "as_numbers", "numeric", "same_angles", "choice", "symbolic",
+           "not_an_expression", "scaled", "another_letter", "make_check", "LOG_VARIABLE", "VERDICTS"]
 
 #: The environment variable that names the file the checks log their verdicts to (for grading).
 LOG_VARIABLE = "CHECKING_LOG"
@@ -108,8 +108,9 @@ def _log(label, verdict, message):
             log.write(json.dumps({"label": label, "verdict": verdict, "message": message}) + "\n")
 
 
-def _numbers(answer, expected):
-    """``answer`` as a float array shaped like ``expected``, or WrongKind saying what was expected."""
+def as_numbers(answer, expected, complex_numbers=False):
+    """``answer`` as a float (or, with ``complex_numbers``, complex) array shaped like ``expected``, or
+    WrongKind saying what was expected: never text, a bool, an infinity or NaN."""
     import numpy as np
 
     shape = np.shape(expected)
@@ -118,10 +119,10 @@ def _numbers(answer, expected):
         raise WrongKind(f"expected {wanted}, got {answer!r}")
     try:
         raw = np.asarray(answer)
-        array = raw.astype(float)
+        array = raw.astype(complex if complex_numbers else float)
     except (TypeError, ValueError):
         raise WrongKind(f"expected {wanted}, got {type(answer).__name__}") from None
-    if raw.dtype.kind not in "iuf":
+    if raw.dtype.kind not in ("iufc" if complex_numbers else "iuf"):
         raise WrongKind(f"expected {wanted}, got {type(answer).__name__} of {raw.dtype}")
     if array.shape != shape:
         raise WrongKind(f"expected {wanted}, got shape {array.shape}")
@@ -135,9 +136,35 @@ def numeric(rtol=1e-6, atol=0.0):
     import numpy as np
 
     def compare(answer, expected):
-        answer, expected = _numbers(answer, expected), np.asarray(expected, dtype=float)
+        answer, expected = as_numbers(answer, expected), np.asarray(expected, dtype=float)
         return bool(np.allclose(answer, expected, rtol=rtol, atol=atol))
     return compare
+
+
+def same_angles(rtol=1e-9, atol=1e-12, angles=None):
+    """Compare numbers of which those at ``angles`` (an index; default all) are angles, taken modulo 2 pi:
+    their cosines and sines are compared, the other numbers as they are, with :func:`numeric`'s tolerance.
+
+    The answer is first taken as every numeric answer is (finite numbers shaped like the expected ones), so
+    that an infinite angle or ``True`` is the wrong kind of answer, said so, not a NaN cosine or 1 rad.
+    """
+    import numpy as np
+
+    def on_circle(values):
+        chosen = np.zeros(values.shape, dtype=bool)
+        chosen[slice(None) if angles is None else angles] = True
+        return np.concatenate((np.cos(values[chosen]), np.sin(values[chosen]), values[~chosen]))
+
+    def compare(answer, expected):
+        answer, expected = as_numbers(answer, expected), np.asarray(expected, dtype=float)
+        return bool(np.allclose(on_circle(answer), on_circle(expected), rtol=rtol, atol=atol))
+    return compare
+
+
+def not_an_expression(answer):
+    """WrongKind if ``answer`` cannot be a sympy expression the student wrote (text, a bool, None)."""
+    if answer is None or isinstance(answer, (str, bytes, bool)):
+        raise WrongKind(f"expected a sympy expression or matrix, got {answer!r}")
 
 
 def choice(answer, expected):
@@ -160,8 +187,7 @@ def symbolic(rtol=1e-9, points=5, seed=2018):
     from sympy.utilities.exceptions import SymPyDeprecationWarning
 
     def compare(answer, expected):
-        if answer is None or isinstance(answer, (str, bytes, bool)):
-            raise WrongKind(f"expected a sympy expression or matrix, got {answer!r}")
+        not_an_expression(answer)
         with warnings.catch_warnings():     # entries that are not expressions (a dict, None, a set ...)
             warnings.simplefilter("error", SymPyDeprecationWarning)
             try:

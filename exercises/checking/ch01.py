@@ -2,12 +2,10 @@
 
 import math
 
-import numpy as np
-
 from closedloop import consistent_initial_state
 from closedloop.slider_crank import slider_crank_model, slider_crank_system
 
-from . import Check, _numbers, another_letter, choice, make_check, numeric, scaled
+from . import Check, another_letter, choice, make_check, numeric, same_angles, scaled
 
 
 def _degrees_of_freedom():
@@ -18,21 +16,6 @@ def _degrees_of_freedom():
 def _dead_centre():
     state = consistent_initial_state(slider_crank_system(), [math.pi], [0.0], [3.0, 1.0])
     return state.s[1:]
-
-
-def same_configuration(rtol=1e-9, atol=1e-12):
-    """Compare [psi, x_C] pairs with psi taken modulo 2 pi: compare [cos psi, sin psi, x_C].
-
-    The answer is first taken as every numeric answer is (:func:`_numbers`: two finite numbers), so that
-    ``[True, True]`` is the wrong kind of answer, not the pair (1 rad, 1 m).
-    """
-    compare = numeric(rtol, atol)
-
-    def configuration(pair):
-        psi, x_C = pair
-        return [math.cos(psi), math.sin(psi), x_C]
-    return lambda answer, expected: compare(configuration(_numbers(answer, expected)),
-                                            configuration(np.asarray(expected, dtype=float)))
 
 
 def _left_branch_x():
@@ -55,7 +38,7 @@ def _can_switch_branches():
 CHECKS = {
     "1.4": Check("1.4", _degrees_of_freedom, numeric(0, 0), "count coordinates minus independent constraints.",
                  lambda expected: expected + 1),
-    "1.5": Check("1.5", _dead_centre, same_configuration(),
+    "1.5": Check("1.5", _dead_centre, same_angles(angles=[0]),
                  "at phi = pi, (28) gives sin psi = 0; then use (27) with x_C > 0 (the slider right of "
                  "the crank).",
                  scaled()),

@@ -5,7 +5,7 @@ import numpy as np
 from closedloop import Baumgarte, baumgarte_from_step, baumgarte_p2, simulate
 from closedloop.slider_crank import CASES, initial_state, slider_crank_system
 
-from . import Check, another_letter, choice, make_check, numeric, scaled
+from . import Check, another_letter, as_numbers, choice, make_check, numeric, scaled
 
 #: alpha, beta of exercise 3.5 (overdamped).
 ROOT_GAINS = (5.0, 4.0)
@@ -18,9 +18,8 @@ STEP = 0.01
 def same_roots(rtol=1e-6, atol=1e-9):
     """Compare two sets of (possibly complex) roots, in any order."""
     def compare(answer, expected):
-        answer, expected = np.asarray(answer, dtype=complex), np.asarray(expected, dtype=complex)
-        return answer.shape == expected.shape and bool(np.all(np.isfinite(answer))) and \
-            bool(np.allclose(np.sort_complex(answer), np.sort_complex(expected), rtol=rtol, atol=atol))
+        answer, expected = as_numbers(answer, expected, complex_numbers=True), np.asarray(expected, dtype=complex)
+        return bool(np.allclose(np.sort_complex(answer), np.sort_complex(expected), rtol=rtol, atol=atol))
     return compare
 
 

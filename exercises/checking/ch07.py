@@ -10,7 +10,7 @@ from closedloop.four_bar import four_bar_model
 from closedloop.slider_crank import (CASES, initial_state, slider_crank_model,
                                      slider_crank_system)
 
-from . import Check, another_letter, choice, make_check, numeric, scaled, symbolic
+from . import Check, another_letter, as_numbers, choice, make_check, numeric, scaled, symbolic
 
 #: The data of the four-bar exercises 7.7 to 7.9.
 FOUR_BAR_DATA = {"l0": 4.0, "l1": 1.0, "l2": 3.5, "l3": 3.0, "m1": 1.0, "m2": 3.0, "m3": 2.5, "g": 9.81}
@@ -84,8 +84,8 @@ def _four_bar_residual():
 
 def _same_decade(answer, expected):
     """Equal on a log scale, within a factor of 10."""
-    answer = float(answer)
-    return answer > 0 and math.isfinite(answer) and abs(math.log10(answer) - math.log10(expected)) < 1
+    answer = float(as_numbers(answer, expected))          # a finite number: not text such as "1e-8", nor True
+    return answer > 0 and abs(math.log10(answer) - math.log10(expected)) < 1
 
 
 def _gravity_over_a_turn():

@@ -9,7 +9,7 @@ from closedloop import Baumgarte, InitialState, derive, simulate
 from closedloop.slider_crank import (SliderCrankParameters, initial_state, slider_crank_model,
                                      slider_crank_system)
 
-from . import Check, choice, make_check, numeric, scaled
+from . import Check, choice, make_check, not_an_expression, numeric, scaled
 
 #: The rocking crank of the chapter: l2 = 1.5 m < l1 = 2 m, centre of mass mid-rod.
 ROCKING = SliderCrankParameters(l2=1.5, a2=0.75, full_rotation=False)
@@ -44,6 +44,7 @@ def _curvature():
 def same_function_of_lengths(rtol=1e-9, points=6, seed=2018):
     """Compare sympy expressions in l1, l2 at random points with l2 > l1 (the paper's crank)."""
     def compare(answer, expected):
+        not_an_expression(answer)                   # as symbolic(): sympify would take "abc" for a symbol
         answer = sp.sympify(answer)
         names = {str(symbol) for symbol in answer.free_symbols}
         if not names <= {"l1", "l2"}:

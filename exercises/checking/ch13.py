@@ -9,7 +9,7 @@ from closedloop import (Minimal, NullSpace, SingularConfigurationError, System, 
                         simulate)
 from closedloop.four_bar import four_bar_model, parameter_values
 
-from . import Check, _numbers, another_letter, choice, make_check, numeric, scaled, symbolic
+from . import Check, another_letter, choice, make_check, numeric, same_angles, scaled, symbolic
 
 #: The chapter's parallelogram [m], [kg], [m/s^2].
 DATA = {"l0": 3.0, "l1": 1.0, "l2": 3.0, "l3": 1.0, "m1": 1.0, "m2": 2.0, "m3": 1.0, "g": 9.81}
@@ -18,21 +18,6 @@ ROCKING_BASE = 3.2
 SHORTER_CRANK = 0.9
 #: Exercise 13.7: released from rest at this crank angle, stopped at the second one [rad].
 FALL = (0.3, 0.05)
-
-
-def same_angles(rtol=1e-9, atol=1e-12):
-    """Compare lists of angles modulo 2 pi: compare their cosines and sines.
-
-    The answer is first taken as every numeric answer is (:func:`_numbers`): finite numbers, shaped like the
-    expected angles, so that an infinite angle or ``True`` is the wrong kind of answer, said so, and not a
-    NaN cosine with a RuntimeWarning, or an angle of 1 rad.
-    """
-    compare = numeric(rtol, atol)
-
-    def on_circle(angles):
-        return np.concatenate((np.cos(angles), np.sin(angles)))
-    return lambda answer, expected: compare(on_circle(_numbers(answer, expected)),
-                                            on_circle(np.asarray(expected, dtype=float)))
 
 
 def _crossed_assembly():
