@@ -96,19 +96,19 @@ pdf: $(STAMP) pdf-tools
 	done; \
 	wait $$english
 
-# make pdf needs Chromium's headless shell and poppler-utils; install them when missing (root on CI).
-# (print_pdf.py takes Debian's whole chromium where the headless shell is missing: the same pages, twice the CPU.)
-pdf-tools:
-	@command -v chromium-headless-shell >/dev/null 2>&1 && command -v pdfinfo >/dev/null 2>&1 \
-	  || { apt-get update -qq && apt-get install -y -qq chromium-headless-shell poppler-utils; } >/dev/null 2>&1 \
-	  || echo "note: chromium-headless-shell or poppler-utils could not be installed here; make pdf needs both"
+# make pdf needs a browser (below) and poppler-utils; install them when missing (root on CI).
+pdf-tools: browser
+	@command -v pdfinfo >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq poppler-utils; } >/dev/null 2>&1 \
+	  || echo "note: poppler-utils could not be installed here; make pdf needs it"
 
-# The site test drives the same browser; install it when missing (root on CI). If there is no Chromium at
-# all, the test says so and is skipped.
+# The site test and make pdf drive Debian's headless shell of Chromium (book/print/print_pdf.py, chromium());
+# install it when missing (root on CI). Debian's whole chromium serves too, at twice the CPU; with neither,
+# the site test says so and is skipped.
 browser:
 	@command -v chromium-headless-shell >/dev/null 2>&1 \
 	  || { apt-get update -qq && apt-get install -y -qq chromium-headless-shell; } >/dev/null 2>&1 \
-	  || echo "note: chromium-headless-shell could not be installed here; the site test needs it (or chromium)"
+	  || command -v chromium >/dev/null 2>&1 \
+	  || echo "note: chromium-headless-shell could not be installed here; the site test and make pdf need it"
 
 test: $(STAMP) browser pdf-tools
 	$(BIN)/python -m pytest

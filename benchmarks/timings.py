@@ -99,9 +99,16 @@ def notebooks():
 
 def make_test():
     print("== make test from a clean clone (target <= 7 min, every notebook executed once)")
-    if shutil.which("chromium-headless-shell") is None:
-        print("  note: chromium-headless-shell is not installed; make test will try to install it (the site test "
-              "and the PDF take twice the CPU time with the whole chromium, and are skipped without either)")
+    sys.path.insert(0, str(ROOT / "book" / "print"))
+    from print_pdf import chromium                  # the browser of the site test and the PDF
+
+    browser = chromium()
+    if not Path(browser).exists():
+        print("  note: no Chromium here; make test will try to install chromium-headless-shell, or skip the site "
+              "test and the PDF")
+    elif not browser.endswith("chromium-headless-shell"):
+        print(f"  note: the browser here is {browser}; make test will try to install chromium-headless-shell (the "
+              "site test and the PDF take twice the CPU time with the whole chromium)")
     folder = Path(tempfile.mkdtemp(prefix="closedloop-clone-"))
     try:
         subprocess.run(["git", "clone", "-q", str(ROOT), str(folder / "repo")], check=True)

@@ -134,6 +134,8 @@ import subprocess                          # noqa: E402
 import threading                           # noqa: E402
 from pathlib import Path                   # noqa: E402
 
+from print_pdf import chromium             # noqa: E402  (book/print: the browser make pdf prints with)
+
 ROOT = Path(__file__).resolve().parents[1]
 BUILD_LOG = ROOT / "_build" / "test-build.log"
 PDF_LOG = ROOT / "_build" / "test-pdf.log"
@@ -233,14 +235,10 @@ def built_pdf(request):
     Skipped, and says so, where the PDF cannot be made or read: without Debian's Chromium (its headless shell,
     or the whole browser) and poppler-utils.
     """
-    import shutil
-    import sys
-
-    sys.path.insert(0, str(ROOT / "book" / "print"))
-    from print_pdf import CHROMIUM                  # the browser make pdf prints with
-
-    missing = ([] if Path(CHROMIUM).exists() else ["chromium-headless-shell"]) + [
-        tool for tool in ("pdfinfo", "pdftotext", "pdfimages", "pdftohtml", "pdftoppm") if shutil.which(tool) is None]
+    missing = [tool for tool in ("pdfinfo", "pdftotext", "pdfimages", "pdftohtml", "pdftoppm")
+               if shutil.which(tool) is None]
+    if not Path(chromium()).exists():
+        missing.insert(0, "chromium-headless-shell")
     if missing:
         pytest.skip(f"the PDF was NOT made or checked: {', '.join(missing)} not installed (Debian's "
                     "chromium-headless-shell and poppler-utils; make test tries to install them)")

@@ -26,20 +26,18 @@ With ``CLOSEDLOOP_SITE_BUILT=1`` the tests read the ``_build/pdf`` already there
 import html
 import re
 import subprocess
-import sys
 from functools import lru_cache
 from pathlib import Path
 
 import pytest
 import yaml
+from print_pdf import TEXTS
 
 from ._toc import toc_documents
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES_OUT = ROOT / "_build" / "pdf" / "pages"
 #: Text an animation's and an interactive figure's note begin with (print_pdf.TEXTS, English).
-sys.path.insert(0, str(ROOT / "book" / "print"))
-from print_pdf import TEXTS  # noqa: E402
 
 NOTES = {kind: text.split("{chapter}")[0] for kind, text in TEXTS["en"].items()}
 

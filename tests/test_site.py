@@ -29,19 +29,16 @@ running ``make book``.
 import functools
 import http.server
 import os
-import sys
 import threading
 from pathlib import Path
 
 import pytest
+from print_pdf import CHROMIUM_FLAGS, chromium    # the PDF's browser: Chromium's headless shell, else chromium
 
 from ._toc import toc_pages
 
 ROOT = Path(__file__).resolve().parents[1]
 HTML = ROOT / "_build" / "html"
-# The browser of the PDF's print, with its flags: Debian's headless shell of Chromium, else its whole browser.
-sys.path.insert(0, str(ROOT / "book" / "print"))
-from print_pdf import CHROMIUM, CHROMIUM_FLAGS  # noqa: E402
 #: The longest cell output a page may show, in rendered lines (a wrapped line counts each time).
 MAX_OUTPUT_LINES = 20
 #: Text the build uses to cut solutions out; a reader must never see it.
@@ -56,8 +53,8 @@ FULL_SCREENSHOTS = os.environ.get("CLOSEDLOOP_FULL_SCREENSHOTS") == "1"
 
 @pytest.fixture(scope="module")
 def site(built_site):
-    if not Path(CHROMIUM).exists():
-        pytest.skip(f"Chromium is not installed ({CHROMIUM} not found), so the built site was NOT "
+    if not Path(chromium()).exists():
+        pytest.skip(f"Chromium is not installed ({chromium()} not found), so the built site was NOT "
                     "checked in a browser: install Debian's chromium-headless-shell package (make test tries to)")
 
     class Quiet(http.server.SimpleHTTPRequestHandler):
@@ -75,7 +72,7 @@ def browser(site):
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_FLAGS)
+        browser = playwright.chromium.launch(executable_path=chromium(), args=CHROMIUM_FLAGS)
         yield browser
         browser.close()
 

@@ -38,13 +38,16 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
-#: Debian's headless shell of Chromium (package chromium-headless-shell: Chromium's old headless mode, which
-#: Playwright also uses for headless runs), else Debian's whole browser (package chromium). The same engine
-#: and the same PDF (its pages and text); but the whole browser ran a second busy renderer
-#: (``--top-chrome-webui``) beside each page's, and took twice the CPU time for the site test's pages
-#: (30 pages: 82 s against 42 s of CPU, 44 s against 30 s wall). The site test (tests/test_site.py) uses
-#: this one too.
-CHROMIUM = shutil.which("chromium-headless-shell") or shutil.which("chromium") or "/usr/bin/chromium-headless-shell"
+def chromium():
+    """The browser to print with: Debian's headless shell of Chromium (package chromium-headless-shell,
+    Chromium's old headless mode, which Playwright also uses for headless runs), else Debian's whole browser
+    (package chromium), else the path the first would have. The same engine and the same PDF, but the whole
+    browser ran a second busy renderer (``--top-chrome-webui``) beside each page's: twice the CPU time for
+    the site test's pages. The site test (tests/test_site.py, tests/conftest.py) uses this one too. Looked up
+    at each call: ``make test`` may install it while the tests run."""
+    return shutil.which("chromium-headless-shell") or shutil.which("chromium") or "/usr/bin/chromium-headless-shell"
+
+
 CHROMIUM_FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                   "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 #: A4 with 15 mm side margins and room for the header and the footer.
@@ -355,15 +358,16 @@ def print_book(html_folder, output, root=None):
     if not (html_folder / root_page).exists():
         raise PrintError(f"no single-page build at {html_folder / root_page}: run "
                          "`jupyter-book build . --builder singlehtml` first (make pdf does)")
-    if not Path(CHROMIUM).exists():
-        raise PrintError(f"Chromium not found at {CHROMIUM}: install Debian's chromium-headless-shell package "
+    browser_path = chromium()
+    if not Path(browser_path).exists():
+        raise PrintError(f"Chromium not found at {browser_path}: install Debian's chromium-headless-shell package "
                          "(make pdf does)")
     output.parent.mkdir(parents=True, exist_ok=True)
     draft = output.with_name(output.stem + ".draft.pdf")
     report = {"prints": 0}
     started = time.perf_counter()
     with serve(html_folder, root_page) as url, sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_FLAGS)
+        browser = playwright.chromium.launch(executable_path=browser_path, args=CHROMIUM_FLAGS)
         try:
             page = open_book(browser, url)
             report["changed"] = prepare(page)
