@@ -195,9 +195,11 @@ def interactive_basin_map(basin, motions=None, selected=(np.pi, 1.0)):
              for code in (0, 1) if np.any(outcome == code)]
     left.add_layout(Legend(items=items, orientation="horizontal", location="center"), "below")
 
+    # min_border_right: room for the last time tick, centred on the frame's right edge (t_end), which a print
+    # of the page cut in half (the "0" of "20" in the PDF; on screen it touched the edge)
     right = figure(title="φ(t) of the selected cell", x_axis_label="time t [s]", y_axis_label="crank angle φ [rad]",
                    tools=tools, sizing_mode="stretch_width", height=400, min_width=250, toolbar_location="above",
-                   x_range=(0.0, basin.t_end), name="basin-motion-plot")
+                   x_range=(0.0, basin.t_end), min_border_right=16, name="basin-motion-plot")
     right.line("t", "phi", source=motion, line_width=2, color="black")
     start = float(phi0.ravel()[first])
     limits = ColumnDataSource(name="basin-limits", data=_limits(start, basin.t_end))
