@@ -126,3 +126,16 @@ def test_benchmark_points_are_the_json_rows():
     assert seen == len(wanted) > 50
     with pytest.raises(ValueError, match="no successful rows"):
         interactive_work_precision(rows, case=99)
+
+
+@pytest.mark.parametrize("case", [1, 2, 3, 4])
+def test_the_cpu_axis_spans_two_decades_around_every_point(case):
+    # Over less than two decades BokehJS's LogTicker places linear ticks: case 2's CPU times (7 ms to 0.39 s)
+    # were labelled 0.1, 0.2, 0.3 and 0.4 s only, nothing below, on screen and in the PDF.
+    rows = load_study(ROOT / "book" / "data" / "benchmark.json")["rows"]
+    times = [r["cpu_s"] for r in rows if r["case"] == case and r["status"] == "ok"]
+    axis = interactive_work_precision(rows, case=case).model.x_range
+    low, high = min(times), max(times)
+    assert math.log10(axis.end / axis.start) >= 2.2 - 1e-12               # 10 % over the threshold
+    assert axis.start <= low / 2 and axis.end >= high * 2                  # every point well inside
+    assert math.isclose(low / axis.start, axis.end / high)                 # widened alike at both ends

@@ -271,7 +271,7 @@ def interactive_work_precision(rows, case=2, entries=None):
                   x_axis_type="log", y_axis_type="log", x_axis_label="CPU time [s]",
                   y_axis_label="error e₁₀ at t = 10 s", tools="pan,wheel_zoom,box_zoom,reset,save",
                   sizing_mode="stretch_width", height=460, min_width=300, toolbar_location="above",
-                  name="benchmark-plot")
+                  x_range=_decades_around([r["cpu_s"] for r in ok]), name="benchmark-plot")
     renderers, items = [], []
     for k, entry in enumerate(entries):
         mine = [r for r in ok if r["formulation"] == entry.key]
@@ -295,6 +295,19 @@ def interactive_work_precision(rows, case=2, entries=None):
     note = ("The HTML edition of this book shows this figure interactively: hovering a point shows its "
             "formulation, method, tolerance, error and CPU time.")
     return InteractiveFigure(plot, note)
+
+
+#: Decades a log axis of Bokeh must span for its ticks to be powers of ten: over less, BokehJS's LogTicker
+#: places linear ticks (case 2's CPU times, 7 ms to 0.39 s, got 0.1, 0.2, 0.3 and 0.4 s, and no label below).
+_LOG_TICKS_DECADES = 2.0
+
+
+def _decades_around(values):
+    """``(low, high)``: the range of the positive ``values`` widened by the same factor at both ends, at least
+    2 on each side and enough that it spans 10 % more than :data:`_LOG_TICKS_DECADES`."""
+    low, high = min(values), max(values)
+    factor = max(2.0, 10.0 ** ((1.1 * _LOG_TICKS_DECADES - math.log10(high / low)) / 2))
+    return low / factor, high * factor
 
 
 def _benchmark_columns(rows):
