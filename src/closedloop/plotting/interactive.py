@@ -267,7 +267,7 @@ def interactive_work_precision(rows, case=2, entries=None):
     ok = [r for r in rows if r["case"] == case and r["status"] == "ok"]
     if not ok:
         raise ValueError(f"case: no successful rows for case {case}")
-    plot = figure(title=f"Case {case}: error at t = 10 s against CPU time, one point per run",
+    plot = figure(title=f"Case {case}: error at t = 10 s against CPU time",       # short: the toolbar shares its row
                   x_axis_type="log", y_axis_type="log", x_axis_label="CPU time [s]",
                   y_axis_label="error e₁₀ at t = 10 s", tools="pan,wheel_zoom,box_zoom,reset,save",
                   sizing_mode="stretch_width", height=460, min_width=300, toolbar_location="above",
