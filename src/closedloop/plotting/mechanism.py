@@ -147,9 +147,14 @@ def _joints(ax, points, size, zorder=5):
 
 
 def _label(ax, point, text, offset, fontsize, color=_INK, ha="center"):
-    """``text`` at ``point`` shifted by ``offset`` points."""
+    """``text`` at ``point`` shifted by ``offset`` points, on a white halo: a line that passes under a name
+    (the arc of psi under C at some crank angles, the extension line of x_C under m3) does not strike it
+    through."""
+    from matplotlib import patheffects
+
     return ax.annotate(text, xy=tuple(point), xytext=tuple(offset), textcoords="offset points",
-                       ha=ha, va="center", fontsize=fontsize, color=color, zorder=8)
+                       ha=ha, va="center", fontsize=fontsize, color=color, zorder=8,
+                       path_effects=[patheffects.withStroke(linewidth=3, foreground="white")])
 
 
 def _dimension(ax, start, end, offset, text, fontsize, text_shift=0.0, color=_NOTE, gid=None):
