@@ -38,7 +38,6 @@ from ._toc import toc_documents
 ROOT = Path(__file__).resolve().parents[1]
 PAGES_OUT = ROOT / "_build" / "pdf" / "pages"
 #: Text an animation's and an interactive figure's note begin with (print_pdf.TEXTS, English).
-
 NOTES = {kind: text.split("{chapter}")[0] for kind, text in TEXTS["en"].items()}
 
 

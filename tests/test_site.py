@@ -53,8 +53,9 @@ FULL_SCREENSHOTS = os.environ.get("CLOSEDLOOP_FULL_SCREENSHOTS") == "1"
 
 @pytest.fixture(scope="module")
 def site(built_site):
-    if not Path(chromium()).exists():
-        pytest.skip(f"Chromium is not installed ({chromium()} not found), so the built site was NOT "
+    browser_path = chromium()
+    if not Path(browser_path).exists():
+        pytest.skip(f"Chromium is not installed ({browser_path} not found), so the built site was NOT "
                     "checked in a browser: install Debian's chromium-headless-shell package (make test tries to)")
 
     class Quiet(http.server.SimpleHTTPRequestHandler):

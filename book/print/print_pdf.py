@@ -38,6 +38,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
+
+
 def chromium():
     """The browser to print with: Debian's headless shell of Chromium (package chromium-headless-shell,
     Chromium's old headless mode, which Playwright also uses for headless runs), else Debian's whole browser
