@@ -132,6 +132,26 @@ def test_n_steps_are_the_solver_steps(conservative_slider_crank):
     assert np.allclose(np.diff(result.t), result.step_sizes)
 
 
+@pytest.mark.parametrize("method, formulation", [("RK45", Baumgarte()), ("ode.dop853", ClosedForm())])
+def test_step_starts_are_where_each_step_began_across_switches(slider_crank, method, formulation):
+    # 50 rad/s over 0.5 s: the gas force switches 15 times, and each switch restarts the run
+    result = simulate(slider_crank, initial_state(slider_crank, math.pi, 50.0), 0.5, formulation=formulation,
+                      method=method, rtol=1e-8, atol=1e-8)
+    starts, sizes = result.step_starts, result.step_sizes
+    switches = np.array([event.t for event in result.switch_events])
+    assert starts.size == sizes.size == result.n_steps and switches.size >= 10
+    assert starts[0] == 0.0 and np.all(np.diff(starts) > 0)
+    ends = starts + sizes
+    assert ends[-1] == pytest.approx(0.5, abs=1e-12)
+    # a step begins where the one before ended, except after a switch: the step that crossed it ends
+    # beyond it (it counts whole), and the next begins at the switch
+    restarts = ~np.isclose(starts[1:], ends[:-1], rtol=0.0, atol=1e-12)
+    assert np.array_equal(starts[1:][restarts], switches)
+    assert np.all(ends[:-1][restarts] > switches)
+    # so the running sum of the steps is not the time: it runs past every switch
+    assert np.sum(sizes) - 0.5 == pytest.approx(np.sum(ends[:-1][restarts] - switches), rel=1e-9)
+
+
 def test_max_steps_error_names_time_step_and_advice(slider_crank):
     state = initial_state(slider_crank, CASES[2].phi0, CASES[2].dphi0)
     with pytest.raises(IntegrationError) as error:

@@ -81,6 +81,19 @@ def test_naive_switching_without_a_switch_reproduces_the_event_based_run(slider_
     naive = simulate(slider_crank, state, 0.5, switching="naive", **options)
     assert naive.switching == "naive"
     assert np.max(np.abs(naive.s - events.s)) < 1e-9
+    # and take the same steps, which the naive run counts as the event-based one does
+    assert naive.n_steps == events.n_steps > 10
+    assert np.allclose(naive.step_starts, events.step_starts, rtol=1e-9, atol=0.0)
+    assert np.allclose(naive.step_sizes, events.step_sizes, rtol=1e-6, atol=0.0)
+
+
+def test_naive_switching_stops_at_max_steps_and_says_where(slider_crank):
+    state = initial_state(slider_crank, CASES[2].phi0, CASES[2].dphi0)
+    with pytest.raises(IntegrationError, match=r"^naive switching reached max_steps = 20 at t = 0\.[0-9]+ s of "
+                                               r"1 s \(step size [0-9.e-]+ s\); use switching='events'$") as error:
+        simulate(slider_crank, state, 1.0, method="RK45", switching="naive", max_steps=20)
+    partial = error.value.result
+    assert partial.n_steps == 20 and partial.t[-1] == pytest.approx(partial.step_starts[-1] + partial.step_sizes[-1])
 
 
 def test_switching_and_the_evaluation_cap_are_validated(slider_crank):

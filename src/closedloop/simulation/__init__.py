@@ -211,6 +211,7 @@ def _result(run, start, with_multipliers):
         partition_singularities=run.partition_singularities, switching=options.switching,
         formulation=formulation.name, method=options.method_name, rtol=options.rtol, atol=options.atol,
         coordinate_names=tuple(system.coordinate_names),
-        step_sizes=np.asarray(run.step_sizes, dtype=float), work=work_done,
+        step_sizes=np.asarray(run.step_sizes, dtype=float), step_starts=np.asarray(run.step_starts, dtype=float),
+        work=work_done,
         step_constraint_error=step_f, step_velocity_constraint_error=step_fd,
     )

@@ -102,8 +102,9 @@ class Segment:
     last_step : float
         The last accepted step size: a good first step for the next segment.
     steps : list of float
-        Every accepted step size, in order (not counting the steps redone to
-        locate the switch).
+        Every accepted step size, in order: the step that crossed the switch
+        too, whole (it ends beyond the switch), but not the steps redone to
+        locate the switch.  Step ``k`` begins at ``step_times[k]``.
     step_ends : ndarray, shape (m, K)
         The state at the start, at every accepted step end, and at the switch
         where the segment stopped, for checks along the path that output
@@ -309,6 +310,7 @@ class _StepWatch:
         for b, a, direction in zip(self.last_g, g, self.directions):
             if a != b and ((direction >= 0 and b <= 0.0 <= a) or (direction <= 0 and b >= 0.0 >= a)):
                 self.hit = (t, y.copy(), g)
+                self.steps.append(t - self.last_t)  # an accepted step: it counts, as solve_ivp's do
                 if self.dense is not None:
                     self.dense.crossed()
                 return -1

@@ -72,16 +72,17 @@ def segment(run, t0, s0, sd0, mode):
     run.nfev += result.nfev
     run.path.check(result.step_times, result.step_ends)
     run.last_step_size = result.last_step
+    run.step_starts.extend(result.step_times[:len(result.steps)].tolist())
     run.step_sizes.extend(result.steps)
     run.t_reached = result.t_stop
     run.check_finite(result.t, result.y)
     if not run.formulation.guards_branch:            # else the formulation guards it itself
-        _check_partition(run, result, t0)
+        _check_partition(run, result)
     run.store_segment(result.t, result.y, s0, mode, t0)
     return run.end_of_segment(result.t_stop, result.y_stop, unpack, result.event)
 
 
-def _check_partition(run, result, t0):
+def _check_partition(run, result):
     """ode.dop853 has no events for det Phi_z: refuse a path whose step ends straddle a zero.
 
     R of (20), and so ClosedForm and Orthogonal, does not exist where det Phi_z = 0;
@@ -99,7 +100,7 @@ def _check_partition(run, result, t0):
         return
     flips = np.nonzero(np.sign(det[1:]) * np.sign(det[:-1]) < 0)[0]
     if flips.size:
-        times = np.concatenate(([t0], t0 + np.cumsum(result.steps), [result.t_stop]))
+        times = result.step_times
         k = int(flips[0])
         raise SingularConfigurationError(
             f"det Phi_z changed sign between t = {times[k]:.6g} s and t = {times[k + 1]:.6g} s with "

@@ -69,6 +69,8 @@ def integrate_naive(run, t0, s0, sd0):
             message = (f"{options.method_name} failed at t = {solver.t:.6g} s with naive switching "
                        f"(step size {solver.step_size:.3g} s); use switching='events'")
             break
+        run.step_starts.append(solver.t_old)
+        run.step_sizes.append(solver.t - solver.t_old)
         if t_eval is None:
             times.append(solver.t)
             states.append(solver.y.copy())
@@ -77,6 +79,10 @@ def integrate_naive(run, t0, s0, sd0):
             if inside.size:
                 times.extend(inside)
                 states.extend(np.atleast_2d(solver.dense_output()(inside).T))
+        if len(run.step_sizes) >= options.max_steps and solver.status == "running":
+            message = (f"naive switching reached max_steps = {options.max_steps} at t = {solver.t:.6g} s of "
+                       f"{run.t_end:g} s (step size {solver.step_size:.3g} s); use switching='events'")
+            break
     t = np.array(times)
     y = np.array(states).reshape(t.size, -1).T
     outputs = formulation.unpacker(system)

@@ -91,6 +91,12 @@ class SimulationResult:
     coordinate_names : tuple of str
     step_sizes : ndarray, shape (n_steps,)
         Every accepted step of the integrator [s], in order, over all segments.
+        A step that crossed a switch counts whole: it ends beyond the switch,
+        where the next segment begins.
+    step_starts : ndarray, shape (n_steps,)
+        The time [s] at which each of those steps began: with ``step_sizes``,
+        what to plot a step size against (their running sum is not the time:
+        it runs past every switch, and it skips the intervals at rest).
     work : ndarray, shape (N,), or None
         Only with ``work=True``: the work W(t) [J] done since ``t_start`` by the
         non-conservative generalised forces tau of (5) (the model's smooth
@@ -128,6 +134,7 @@ class SimulationResult:
     atol: float = math.nan
     coordinate_names: tuple = ()
     step_sizes: np.ndarray = field(default_factory=lambda: np.empty(0))
+    step_starts: np.ndarray = field(default_factory=lambda: np.empty(0))
     work: np.ndarray | None = None
     step_constraint_error: float = 0.0
     step_velocity_constraint_error: float = 0.0

@@ -53,7 +53,7 @@ class Run:
         self.names = self.force.switch_names if self.force is not None else ()
         self.outputs = Outputs(options.t_eval)
         self.nfev = 0
-        self.step_sizes = []              # every accepted step [s]
+        self.step_starts, self.step_sizes = [], []   # every accepted step: where it began, its size [s]
         self.t_reached = None             # time of the last accepted step
         self.last_step_size = 0.0         # carried from one compiled segment to the next
         self.steps_exhausted = False

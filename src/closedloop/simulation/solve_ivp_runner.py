@@ -78,6 +78,7 @@ def counting_solver(run, method):
             elif success:
                 self.standing = 0
             if success and self.t != t_before:
+                run.step_starts.append(t_before)
                 run.step_sizes.append(abs(self.t - t_before))
                 run.t_reached = self.t
                 if watch:
