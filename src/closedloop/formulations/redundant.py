@@ -135,9 +135,11 @@ class Orthogonal(_Stabilised):
         """s'' from (26)."""
         M, p1, constraint_values, Phi, gamma = system.dynamics(t, s, sd, mode)
         R = orthogonal_complement(Phi, system.q_index, system.z_index, t)
-        A = np.vstack((R.T @ M, Phi))                                       # (25)
-        p = np.concatenate((R.T @ p1, baumgarte_p2(Phi, gamma, constraint_values, sd, self.alpha, self.beta)))
-        return solve_dense(A, p)                                             # (26)
+        p2 = baumgarte_p2(Phi, gamma, constraint_values, sd,
+                          self.alpha, self.beta)                   # (17)
+        A = np.vstack((R.T @ M, Phi))                              # (25)
+        p = np.concatenate((R.T @ p1, p2))                         # (25)
+        return solve_dense(A, p)                                   # (26)
 
 
 
@@ -173,6 +175,8 @@ class NullSpace(_Stabilised):
         """s'' from (26) with N in place of R."""
         M, p1, constraint_values, Phi, gamma = system.dynamics(t, s, sd, mode)
         N = null_space_basis(Phi, self.basis, t)
-        A = np.vstack((N.T @ M, Phi))
-        p = np.concatenate((N.T @ p1, baumgarte_p2(Phi, gamma, constraint_values, sd, self.alpha, self.beta)))
-        return solve_dense(A, p)
+        p2 = baumgarte_p2(Phi, gamma, constraint_values, sd,
+                          self.alpha, self.beta)                   # (17)
+        A = np.vstack((N.T @ M, Phi))                              # (25)
+        p = np.concatenate((N.T @ p1, p2))                         # (25)
+        return solve_dense(A, p)                                   # (26)
