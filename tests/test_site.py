@@ -10,8 +10,9 @@ README's build command, ``make book``, beside the library's tests), serves ``_bu
   wider than the text column;
 - an image that does not load, or one with no alt text (an img with no non-empty alt, an svg with
   no accessible name, an animation whose container and frame image both have none);
-- a cell output longer than ``MAX_OUTPUT_LINES`` rendered lines (a table counts its body rows), or one
-  (a table) wider than the text column;
+- a cell output longer than ``MAX_OUTPUT_LINES`` rendered lines (a table counts its body rows), one
+  (a table) wider than the text column, or one with a line that wraps in its box (a printed table
+  whose columns break apart, on screen and in print);
 - a build marker (``MARKERS``) anywhere in the page's text, solutions included;
 - a code block that scrolls sideways or is cut by the text column (solutions opened first).
 
@@ -135,6 +136,9 @@ MEASURE = r"""() => {
                 + output.querySelectorAll('tbody tr').length;
             return {lines, start: output.textContent.trim().slice(0, 70)};
         }).filter(o => o.lines > %d),
+        wrappedOutputs: [...article.querySelectorAll('div.cell_output pre')].filter(pre =>
+            pre.offsetParent !== null && renderedLines(pre) > pre.textContent.replace(/\n$/, '').split('\n').length
+        ).map(pre => pre.textContent.split('\n').reduce((a, b) => a.length >= b.length ? a : b).slice(0, 100)),
         markers: %s.filter(m => article.textContent.includes(m)),
         wideCode: [...article.querySelectorAll('pre')].filter(pre => {
             const r = pre.getBoundingClientRect();
@@ -171,6 +175,7 @@ def test_page_is_clean(browser, site, page_name):
         ("images with no alt text", [i["src"] for i in found["images"] if not i["alt"]]),
         ("svgs or animations with no alt text", found["unnamedSvg"] + found["unnamedAnimations"] or []),
         (f"outputs longer than {MAX_OUTPUT_LINES} lines", found["longOutputs"]),
+        ("outputs whose lines wrap in their box (their longest lines)", found["wrappedOutputs"]),
         ("build markers in the page", found["markers"]),
         ("code blocks wider than the text column (their longest lines)", found["wideCode"]),
         ("outputs wider than the text column", found["wideTables"]),
