@@ -12,6 +12,7 @@ tests expect is read from the sources or from the built site, never typed here:
 - no exercise solution: no sentence of a solution's prose, no line of its code; each exercise's
   statement is there (the same search finds them, so the first check can fail);
 - no TeX left: no ``$``, and none of the TeX commands the sources' formulas use;
+- no number glued into the prose ("7e-08") broken across two lines at its exponent's sign;
 - the bibliography: every entry of ``book/references.bib``;
 - every page with the book's title in its header and "page / pages" in its footer;
 - each animation as a still with its note naming its chapter, each interactive figure drawn.
@@ -328,6 +329,15 @@ def test_no_tex_is_left(pages):
     assert {"\\frac", "\\dot", "\\begin"} <= commands, "the sources' formulas were not found"
     assert "$" not in text
     assert sorted(c for c in commands if re.search(re.escape(c) + r"(?![A-Za-z])", text)) == []
+
+
+def test_no_number_is_broken_at_its_exponent(pdf):
+    """A number glued into the prose ("7e-08") is one word: a line may not end at its exponent's sign
+    (Chromium breaks after a hyphen-minus unless the book's CSS keeps the number whole)."""
+    lines = run("pdftotext", "-raw", str(pdf), "-").splitlines()      # in drawing order: lines whole
+    assert sum(len(re.findall(r"\b\d(?:\.\d+)?e[-+]\d\d\b", line)) for line in lines) > 5, \
+        "no number of the form 1.0e-10 found in the PDF's text"
+    assert [line[-40:] for line in lines if re.search(r"\b\d(?:\.\d+)?e[-+]$", line.rstrip())] == []
 
 
 def test_the_bibliography(body, pages, starts):
