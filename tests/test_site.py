@@ -115,6 +115,8 @@ MEASURE = r"""() => {
         const height = pre.scrollHeight - parseFloat(style.paddingTop) - parseFloat(style.paddingBottom);
         return Math.max(pre.textContent.replace(/\n$/, '').split('\n').length, Math.round(height / line));
     };
+    const longestLine = (pre) =>
+        pre.textContent.split('\n').reduce((a, b) => a.length >= b.length ? a : b).slice(0, 100);
     const named = (e) => (e.getAttribute('alt') || e.getAttribute('aria-label') || '').trim() !== ''
         || !!(e.querySelector && e.querySelector('title') && e.querySelector('title').textContent.trim());
     return {
@@ -138,12 +140,12 @@ MEASURE = r"""() => {
         }).filter(o => o.lines > %d),
         wrappedOutputs: [...article.querySelectorAll('div.cell_output pre')].filter(pre =>
             pre.offsetParent !== null && renderedLines(pre) > pre.textContent.replace(/\n$/, '').split('\n').length
-        ).map(pre => pre.textContent.split('\n').reduce((a, b) => a.length >= b.length ? a : b).slice(0, 100)),
+        ).map(longestLine),
         markers: %s.filter(m => article.textContent.includes(m)),
         wideCode: [...article.querySelectorAll('pre')].filter(pre => {
             const r = pre.getBoundingClientRect();
             return pre.offsetParent !== null && (pre.scrollWidth > pre.clientWidth + 1 || r.right > column.right + 1);
-        }).map(pre => pre.textContent.split('\n').reduce((a, b) => a.length >= b.length ? a : b).slice(0, 100)),
+        }).map(longestLine),
         wideTables: [...article.querySelectorAll('div.cell_output table, div.cell_output div.output')].filter(e => {
             const r = e.getBoundingClientRect();
             return e.offsetParent !== null && (e.scrollWidth > e.clientWidth + 1 || r.right > column.right + 1);
