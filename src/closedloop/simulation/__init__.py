@@ -153,12 +153,13 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     residuals |f| and |f'| at the outputs only when first read, see
     :class:`SimulationResult`), and with DOP853 and ode.dop853 so does each step
     that holds one.  With 10 000 outputs a run took, against the same run
-    without them: ode.dop853 1.70 times as long (1.69 over 20 s, where nearly
-    every step holds outputs), DOP853 1.89 (1.44 over 20 s), RK45 1.44, RK23
-    1.47, Radau 1.14, BDF 1.25 and LSODA 3.84 (1.50 over 20 s).  ode.dop853's
-    extra is the three right-hand sides per step (a quarter of the run's) and,
-    about as much again, the Python work per step and per output on a run that
-    is itself short (1 ms over 1 s).
+    without them (each timed after a run of its own kind): ode.dop853 1.86
+    times as long (1.62 over 20 s, where nearly every step holds outputs),
+    DOP853 1.91 (1.43 over 20 s), RK45 1.42, RK23 1.46, Radau 1.11, BDF 1.21
+    and LSODA 4.00 (1.52 over 20 s).  Of ode.dop853's extra 0.85 ms over 1 s,
+    the three right-hand sides per step are 0.09 ms and the interpolant's
+    arithmetic 0.13 ms; the rest is Python work per step, per segment and per
+    output, on a run that is itself short (1 ms).
 
     The fixed-step :func:`closedloop.fixed_step.rk4` is not one of these
     methods and takes no output times: its outputs are its steps.
