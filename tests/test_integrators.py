@@ -152,6 +152,18 @@ def test_step_starts_are_where_each_step_began_across_switches(slider_crank, met
     assert np.sum(sizes) - 0.5 == pytest.approx(np.sum(ends[:-1][restarts] - switches), rel=1e-9)
 
 
+@pytest.mark.parametrize("method, formulation", [("RK45", Baumgarte()), ("DOP853", Baumgarte()),
+                                                 ("ode.dop853", ClosedForm())])
+def test_max_steps_bounds_the_accepted_steps_exactly(slider_crank, method, formulation):
+    # 50 rad/s over 0.5 s, 15 switches: a run that needs n steps passes with max_steps = n, not with n - 1
+    # (ode.dop853's compiled code counts rejected steps too and lets one more through: the bound is ours)
+    start, options = initial_state(slider_crank, math.pi, 50.0), dict(formulation=formulation, method=method)
+    needed = simulate(slider_crank, start, 0.5, **options).n_steps
+    assert simulate(slider_crank, start, 0.5, max_steps=needed, **options).n_steps == needed
+    with pytest.raises(IntegrationError, match=rf"max_steps = {needed - 1} at t = "):
+        simulate(slider_crank, start, 0.5, max_steps=needed - 1, **options)
+
+
 def test_max_steps_error_names_time_step_and_advice(slider_crank):
     state = initial_state(slider_crank, CASES[2].phi0, CASES[2].dphi0)
     with pytest.raises(IntegrationError) as error:

@@ -135,7 +135,7 @@ class BudgetExceeded(Exception):
 
 def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, outputs=None,
                       outputs_increasing=False, first_step=0.0, max_step=0.0, nsteps=DEFAULT_NSTEPS,
-                      max_nfev=math.inf):
+                      max_nfev=math.inf, max_steps=math.inf):
     """Integrate ``y' = rhs(t, y)`` from ``t0`` to ``t_end`` or the first switch.
 
     Parameters
@@ -161,7 +161,11 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     first_step, max_step : float, optional
         0 lets the code choose.
     nsteps : int, optional
-        Steps allowed per call of the compiled code.
+        Steps allowed per call of the compiled code (its ``nmax``, which counts
+        rejected steps too and lets one more through).
+    max_steps : float, optional
+        Accepted steps allowed before ``t_end``; beyond, an IntegrationError with
+        ``return_code`` -2, as the compiled code's own for ``nsteps``.
     max_nfev : float, optional
         Right-hand-side evaluations allowed; beyond, :class:`BudgetExceeded`.
 
@@ -182,7 +186,8 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
     dense = None if outputs is None else _DenseOutputs(counted, calls, outputs, t0, y0, t_end, record,
                                                        first_step=min(first_step, t_end - t0),
                                                        increasing=outputs_increasing)
-    watch = _StepWatch(switching, directions, t0, y0, first_step, failure=failure, dense=dense)
+    watch = _StepWatch(switching, directions, t0, y0, first_step, failure=failure, dense=dense,
+                       max_steps=max_steps, t_end=t_end)
     if t_end > t0:
         t_code, y_code, code = dop853_code.dopri853(      # scipy's ode(counted) "dop853", but for fac1
             counted, t0, y0, t_end, rtol=rtol, atol=atol, nsteps=nsteps,
@@ -290,11 +295,15 @@ class _StepWatch:
     ``last_t, last_y, last_g``: the last accepted step end and its switching
     values; ``last_step``: its step size; ``hit``: ``(t, y, g)`` of the step that
     crossed, or None; ``steps, ends, end_times``: every step (the ends are also the
-    outputs without ``dense``); ``dense``: the requested outputs, or None.
+    outputs without ``dense``); ``dense``: the requested outputs, or None.  The
+    ``max_steps``-th accepted step that ends before ``t_end`` (or a step beyond it) stops
+    the code with an IntegrationError in ``failure``.
     """
 
-    def __init__(self, switching, directions, t0, y0, first_step, failure, dense=None):
+    def __init__(self, switching, directions, t0, y0, first_step, failure, dense=None, max_steps=math.inf,
+                 t_end=math.inf):
         self.switching, self.directions, self.failure = switching, directions, failure
+        self.max_steps, self.t_end = max_steps, t_end
         self.last_t, self.last_y, self.last_g = t0, y0.copy(), list(switching(t0, y0))
         self.last_step, self.hit, self.dense = first_step, None, dense
         self.steps, self.ends, self.end_times = [], [self.last_y], [t0]
@@ -311,12 +320,16 @@ class _StepWatch:
             if a != b and ((direction >= 0 and b <= 0.0 <= a) or (direction <= 0 and b >= 0.0 >= a)):
                 self.hit = (t, y.copy(), g)
                 self.steps.append(t - self.last_t)  # an accepted step: it counts, as solve_ivp's do
+                if len(self.steps) > self.max_steps:
+                    return self._out_of_steps(t)
                 if self.dense is not None:
                     self.dense.crossed()
                 return -1
         ta, ya = self.last_t, self.last_y
         self.last_step = t - self.last_t
         self.steps.append(self.last_step)
+        if len(self.steps) > self.max_steps or (len(self.steps) == self.max_steps and t < self.t_end):
+            return self._out_of_steps(t)
         y = y.copy()                         # one copy serves both: neither is changed in place
         self.ends.append(y)
         self.end_times.append(t)
@@ -329,6 +342,13 @@ class _StepWatch:
             if self.failure:
                 return -1
         return 0
+
+    def _out_of_steps(self, t):
+        """Stop the code: the accepted steps reached ``max_steps`` at ``t`` with more to go."""
+        error = IntegrationError(f"ode.dop853 reached max_steps = {self.max_steps} at t = {t:.6g} s")
+        error.return_code, error.t = -2, t
+        self.failure.append(error)
+        return -1
 
     def segment(self, t_stop, y_stop, event, evaluations, size):
         """The Segment that ends at ``(t_stop, y_stop)``: its outputs are the requested times, or the step ends

@@ -56,7 +56,7 @@ def segment(run, t0, s0, sd0, mode):
             switching=_switching_values(run, unpack), directions=directions, outputs=run.outputs.due(t0),
             outputs_increasing=True,
             max_nfev=run.evaluations_left(),
-            nsteps=solver_options.pop("nsteps", max(1, min(dop853.DEFAULT_NSTEPS, steps_left))),
+            nsteps=solver_options.pop("nsteps", dop853.DEFAULT_NSTEPS), max_steps=steps_left,
             first_step=first_step if first_step is not None else run.last_step_size, **solver_options)
     except dop853.BudgetExceeded as exceeded:
         raise run.budget_error(exceeded.t) from None
