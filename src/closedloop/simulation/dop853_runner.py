@@ -49,14 +49,12 @@ def segment(run, t0, s0, sd0, mode):
     solver_options = dict(options.solver_options)
     first_step = solver_options.pop("first_step", None)     # the user's first step: first segment only
     first_step = first_step if first_step is not None and not run.outputs.pieces else None
-    steps_left = options.max_steps - len(run.step_sizes)
     try:
-        result = dop853.integrate_segment(
+        result = dop853.integrate_segment(      # the user's nsteps, if given, is among solver_options
             rhs, t0, y0, run.t_end, rtol=options.rtol, atol=options.atol,
             switching=_switching_values(run, unpack), directions=directions, outputs=run.outputs.due(t0),
             outputs_increasing=True,
-            max_nfev=run.evaluations_left(),
-            nsteps=solver_options.pop("nsteps", dop853.DEFAULT_NSTEPS), max_steps=steps_left,
+            max_nfev=run.evaluations_left(), max_steps=options.max_steps - len(run.step_sizes),
             first_step=first_step if first_step is not None else run.last_step_size, **solver_options)
     except dop853.BudgetExceeded as exceeded:
         raise run.budget_error(exceeded.t) from None
