@@ -123,9 +123,26 @@ def test_compiled_dop853_max_steps(slider_crank, case2, follow, options):
 
 
 def test_compiled_dop853_own_step_limit(slider_crank, case2):
-    """The solver option nsteps, given by the user, is named as such (it caps each output interval)."""
-    with pytest.raises(IntegrationError, match=r"more steps were needed than allowed \(nsteps\)"):
+    """The solver option nsteps, given by the user, is named as such, with its value (it caps each segment)."""
+    with pytest.raises(IntegrationError) as error:
         simulate(slider_crank, case2, 0.1, formulation=ClosedForm(1e3, 1e3), method="ode.dop853", nsteps=20)
+    message = str(error.value)
+    assert "more step attempts were needed in one segment than nsteps = 20 allows" in message
+    assert "max_steps" not in message
+
+
+def test_compiled_dop853_max_steps_with_nsteps_given(slider_crank, case2):
+    """max_steps reached while the user also gave nsteps: the message names the user's max_steps, not the
+    steps that were left for the segment, and not nsteps."""
+    settings = dict(formulation=ClosedForm(), method="ode.dop853", max_steps=30, nsteps=10**6)
+    full = simulate(slider_crank, case2, 2.0, **{**settings, "max_steps": 2000})
+    # the 30th step lies past a switch, in a segment whose own watch was left fewer than 30 steps
+    assert len(full.step_sizes) > 30 and full.switch_events and full.step_starts[29] > full.switch_events[0].t
+    with pytest.raises(IntegrationError) as error:
+        simulate(slider_crank, case2, 2.0, **settings)
+    message = str(error.value)
+    assert message.startswith("ode.dop853 reached max_steps = 30 at t = ") and "nsteps" not in message
+    assert message.endswith("or raise max_steps")
 
 
 def test_max_segments(slider_crank, case2):

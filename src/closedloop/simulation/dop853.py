@@ -79,7 +79,8 @@ REJECTION_FACTOR = 0.6
 STEP_CONTROL_BETA = 0.04
 _RETURN_CODES = {
     -1: "the input is not consistent",
-    -2: "more steps were needed than allowed (nsteps); the problem may be stiff",
+    -2: "more step attempts were needed in one segment than nsteps = {nsteps} allows (rejected steps count "
+        "too); the problem may be stiff, or nsteps too small",
     -3: "the step size became too small",
     -4: "the problem is probably stiff",
 }
@@ -165,7 +166,8 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         rejected steps too and lets one more through).
     max_steps : float, optional
         Accepted steps allowed before ``t_end``; beyond, an IntegrationError with
-        ``return_code`` -2, as the compiled code's own for ``nsteps``.
+        ``return_code`` -2, as the compiled code's own for ``nsteps``, and with
+        ``max_steps_reached`` True, which tells the two apart.
     max_nfev : float, optional
         Right-hand-side evaluations allowed; beyond, :class:`BudgetExceeded`.
 
@@ -200,9 +202,10 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                                       y0.size)
         if code < 0:
             error = IntegrationError(
-                f"ode.dop853 failed at t = {t_code:.6g} s: {_RETURN_CODES.get(code, f'code {code}')}. "
+                f"ode.dop853 failed at t = {t_code:.6g} s: "
+                f"{_RETURN_CODES.get(code, f'code {code}').format(nsteps=nsteps)}. "
                 "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains")
-            error.return_code, error.t = code, float(t_code)
+            error.return_code, error.t, error.max_steps_reached = code, float(t_code), False
             raise _with_path(error, watch)
         watch.last_t, watch.last_y = t_end, np.array(y_code, dtype=float)
     if dense is not None:
@@ -346,7 +349,7 @@ class _StepWatch:
     def _out_of_steps(self, t):
         """Stop the code: the accepted steps reached ``max_steps`` at ``t`` with more to go."""
         error = IntegrationError(f"ode.dop853 reached max_steps = {self.max_steps} at t = {t:.6g} s")
-        error.return_code, error.t = -2, t
+        error.return_code, error.t, error.max_steps_reached = -2, t, True
         self.failure.append(error)
         return -1
 
@@ -803,6 +806,6 @@ def _redo(rhs, ta, ya, t, rtol, atol):
     if code < 0:
         raise IntegrationError(
             f"ode.dop853 failed at t = {t_code:.6g} s while locating a switch: "
-            f"{_RETURN_CODES.get(code)}. Try a solve_ivp method"
+            f"{_RETURN_CODES.get(code, f'code {code}').format(nsteps=DEFAULT_NSTEPS)}. Try a solve_ivp method"
         )
     return np.array(y, dtype=float)

@@ -61,8 +61,8 @@ def segment(run, t0, s0, sd0, mode):
     except ClosedLoopError as error:                # a change point passed earlier is the real cause
         if hasattr(error, "path_times"):
             run.path.check(error.path_times, error.path_states, failed_at=error.failed_at)
-        if getattr(error, "return_code", None) == -2 and "nsteps" not in options.solver_options:
-            raise IntegrationError(                 # the cap was simulate's max_steps, not the user's nsteps
+        if getattr(error, "max_steps_reached", False):  # simulate's max_steps, not the compiled code's nsteps
+            raise IntegrationError(                 # (the watch counted this segment's steps only)
                 f"ode.dop853 reached max_steps = {options.max_steps} at t = {error.t:.6g} s of t_end = "
                 f"{run.t_end:g} s: the problem is stiff for this method, or the run too long; {run.advice()}, "
                 "or raise max_steps") from None
