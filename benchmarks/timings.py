@@ -10,8 +10,10 @@ notebooks (target 1: each <= 20 s, all <= 120 s)
     Every notebook page of the book (the ``_toc.yml`` order: chapters, the notation page, the
     appendix, the exercise pages with their solutions) executed top to bottom by nbclient in a fresh
     kernel, in its own folder, one after another: the wait of a reader who runs one page. Kernel
-    start and imports are included. Then the book's execution as ``make book`` runs it
-    (``book/_ext/execute_pages.py``: the pages a core each, nothing cached), wall time.
+    start and imports are included; the part of the sum that is the kernels' start and stop alone
+    (a page with one empty cell, times the pages) follows it. Then the book's execution as ``make
+    book`` runs it (``book/_ext/execute_pages.py``: the pages a core each, nothing cached), wall
+    time: the issue's own measure ("about 275 s of [make book] executing notebooks").
 make-test (target 2: <= 7 min from a clean clone, every notebook executed once)
     ``git clone`` of this repository into a temporary folder, then ``make test`` there, timed: the
     virtual environment's installation (``make .venv/.installed``, from pip's cache) and the test
@@ -64,12 +66,24 @@ def _execute_pages():
 def time_notebook(path):
     """Wall time [s] of one execution of the notebook at ``path``, kernel start included."""
     import jupytext
+
+    return _time_execution(jupytext.read(ROOT / path), (ROOT / path).parent)
+
+
+def time_empty_page():
+    """Wall time [s] of a notebook with one empty cell: the kernel's start and stop, the floor of every page."""
+    import nbformat
+
+    notebook = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("pass")])
+    return min(_time_execution(notebook, ROOT) for _ in range(3))
+
+
+def _time_execution(notebook, folder):
     import nbclient
 
-    notebook = jupytext.read(ROOT / path)
     start = time.perf_counter()
     nbclient.NotebookClient(notebook, timeout=600, kernel_name="python3",
-                            resources={"metadata": {"path": str((ROOT / path).parent)}}).execute(
+                            resources={"metadata": {"path": str(folder)}}).execute(
         stderr=subprocess.DEVNULL)              # the kernel's start-up notices, not the notebook's output
     return time.perf_counter() - start
 
@@ -87,6 +101,9 @@ def notebooks():
     slowest = max(times, key=times.get)
     print(f"  one after another: {total:.0f} s over {len(times)} notebooks; slowest {times[slowest]:.1f} s "
           f"({slowest})")
+    floor = time_empty_page()
+    print(f"  of which the kernels' start and stop: {len(times) * floor:.0f} s ({floor:.2f} s a page, the best of "
+          "three runs of a page with one empty cell)")
     execute_pages = _execute_pages()
     pages = execute_pages.notebook_pages()
     start = time.perf_counter()
