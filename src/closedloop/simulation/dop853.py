@@ -5,8 +5,9 @@ step loop in Python, which costs about 4 µs per right-hand-side evaluation
 before the right-hand side itself is called.  ``scipy.integrate.ode`` wraps
 Hairer and Wanner's own DOP853 code [Hairer, Nørsett, Wanner, *Solving ODEs I*,
 section II.10], the same pair with a compiled step loop: only the right-hand
-side runs in Python.  That code has no events and no dense output, so this
-module adds what :func:`closedloop.simulate` needs from a segment:
+side runs in Python.  That code has no events, and its own dense output is out
+of reach (see below), so this module adds what :func:`closedloop.simulate` needs
+from a segment:
 
 - after every accepted step (the ``solout`` callback) the switching functions
   are evaluated at the step's end; a sign change in the watched direction stops
@@ -27,7 +28,13 @@ and ``solout`` after every accepted step, so the stages of that step are the las
 twelve calls (:class:`_DenseOutputs` records them and checks that they rebuild the
 code's step end to round-off, else recomputes them); only the three extra stages
 of the extension are new right-hand sides, and only in the steps that contain an
-output time.  The code runs with scipy's settings of ``ode(...).set_integrator("dop853")`` but
+output time.  Hairer's code can compute the extension itself (``iout = 2``: the three extra
+stages and the coefficients, in the work array that the caller passes and ``solout`` could
+read), but scipy's C translation (``dop.c``, ``dp86co``, scipy 1.17) moves the pointer it
+counts evaluations through in that branch (``nfcn += 3;`` where ``*nfcn += 3`` is meant), so
+every later count writes past the caller's variable: here every call with ``iout = 2`` ended
+the Python process with a segmentation fault, after 4, 20 and 25 accepted steps of three runs.
+The code runs with scipy's settings of ``ode(...).set_integrator("dop853")`` but
 two: the retry of a rejected step (:data:`REJECTION_FACTOR`) and the stabilised step size
 control (:data:`STEP_CONTROL_BETA`).  The method is selected by
 ``simulate(..., method="ode.dop853")``.
