@@ -48,6 +48,8 @@ from pathlib import Path
 
 import numpy
 
+from .loading import one_time
+
 __all__ = ["ENVIRONMENT_VARIABLE", "cache_folder", "source_fingerprint", "sympy_version", "cache_key",
            "cached_code", "module_text"]
 
@@ -152,6 +154,11 @@ def cached_code(kind, parts, generate, names):
         that is written to the cache (or, if some function cannot be written as a
         module, straight from ``generate``, and nothing is cached).
     """
+    with one_time():                        # once per system: left out of a run's cpu_time
+        return _cached_code(kind, parts, generate, names)
+
+
+def _cached_code(kind, parts, generate, names):
     if any(part is None for part in parts):
         made = generate()
         return {name: made[name] for name in names}

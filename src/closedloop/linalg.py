@@ -7,12 +7,12 @@ singular matrix is refused with one message wherever it is met.
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
 
 from .errors import SingularConfigurationError, at_time
+from .loading import first_use
 
 __all__ = ["solve_augmented", "solve_small", "solve_dense", "solve_many", "condition_number", "orthogonal_complement",
            "orthogonal_complement_many", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
@@ -37,10 +37,10 @@ def solve_augmented(M, Phi, p1, p2, t=None):
     return x[:n], x[n:]
 
 
-@functools.cache
+@first_use
 def _gesv():
     """LAPACK's ``dgesv`` (LU with partial pivoting, then the two triangular solves), from scipy.linalg,
-    imported on first use (not with this module: scipy.linalg costs about 0.1 s to import)."""
+    imported on first use (not with this module: scipy.linalg costs about 0.2 s to import)."""
     from scipy.linalg.lapack import dgesv
 
     return dgesv

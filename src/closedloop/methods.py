@@ -3,7 +3,8 @@
 Every list of methods in the library (what :func:`closedloop.simulate` accepts,
 what the projection can reset, what the baseline and the benchmark run, the
 command line's help) is taken from here.  The module imports nothing from
-closedloop, so any module may use it without an import cycle.
+closedloop but :mod:`closedloop.loading` (which imports nothing from closedloop),
+so any module may use it without an import cycle.
 
 Nor does it import scipy.integrate (whose package imports scipy.optimize, scipy.sparse,
 scipy.linalg and scipy.special, about 0.3 s) until a solver class is asked for:
@@ -13,8 +14,10 @@ with the compiled DOP853 (:mod:`closedloop.simulation.dop853_code`) never import
 
 from __future__ import annotations
 
+from .loading import first_use
+
 __all__ = ["SOLVE_IVP_METHODS", "COMPILED_METHOD", "SOLVER_METHODS", "SOLVER_CLASSES",
-           "EXPLICIT_RUNGE_KUTTA_METHODS", "IMPLICIT_METHODS", "solver_classes"]
+           "EXPLICIT_RUNGE_KUTTA_METHODS", "IMPLICIT_METHODS", "solver_classes", "scipy_integrate"]
 
 #: The methods of ``scipy.integrate.solve_ivp``, by name and in the order the book lists them.
 SOLVE_IVP_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
@@ -36,10 +39,17 @@ def solver_classes():
     """
     classes = globals().get("SOLVER_CLASSES")
     if classes is None:
-        import scipy.integrate
-
-        classes = globals()["SOLVER_CLASSES"] = {name: getattr(scipy.integrate, name) for name in SOLVE_IVP_METHODS}
+        integrate = scipy_integrate()
+        classes = globals()["SOLVER_CLASSES"] = {name: getattr(integrate, name) for name in SOLVE_IVP_METHODS}
     return classes
+
+
+@first_use
+def scipy_integrate():
+    """scipy.integrate, imported at the first call (its import time is left out of a run's cpu_time)."""
+    import scipy.integrate
+
+    return scipy.integrate
 
 
 def __getattr__(name):

@@ -17,12 +17,12 @@ holds the sticking rule).  The pieces:
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 
 from ..errors import ClosedLoopError, IntegrationError
 from ..formulations import Baumgarte
+from ..loading import run_clock
 from . import dop853_runner, solve_ivp_runner
 from .naive import integrate_naive
 from .options import BRANCH_LIMIT, INITIAL_TOLERANCE, MAX_STEPS, SOLVER_METHODS, SWITCHING, run_options
@@ -170,7 +170,7 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
         t_eval=t_eval, multipliers=multipliers, stop_when=stop_when, sticking_resolution=sticking_resolution,
         max_segments=max_segments, switching=switching, max_nfev=max_nfev, max_steps=max_steps, work=work,
         branch_limit=branch_limit, solver_options=options)
-    start = time.process_time()
+    start = run_clock()                        # process time, the modules loaded on first use left out
     run = Run(system, formulation, run_settings)
     # A motion that runs away (loose tolerances, a fast start) reaches numbers beyond float's range:
     # numpy's inf and NaN then end the run with the errors below, not with RuntimeWarnings on the way,
@@ -202,7 +202,7 @@ def _result(run, start, with_multipliers):
     """The SimulationResult of a finished (or, for a naive run, capped) run."""
     system, formulation, options = run.system, run.formulation, run.options
     t, s, sd, modes, work_done = run.outputs.assemble(options.work)
-    cpu_time = time.process_time() - start
+    cpu_time = run_clock() - start
     lam = multipliers(system, formulation, t, s, sd, modes()) if with_multipliers else None
     step_f, step_fd = run.path.largest_residuals
     return SimulationResult(

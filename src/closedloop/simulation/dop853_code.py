@@ -42,6 +42,8 @@ import sys
 
 import numpy as np
 
+from ..loading import one_time
+
 __all__ = ["extension", "coefficients", "dopri853", "EXTENSION_NAME", "COEFFICIENTS_NAME"]
 
 #: The extension's real name (scipy's ``from . import _dop`` in ``scipy/integrate/_ode.py``).
@@ -92,15 +94,17 @@ def _load_coefficients():
 
 
 def _module(name, load):
-    """The module ``name``: imported already, else loaded by ``load``, else imported the ordinary way."""
+    """The module ``name``: imported already, else loaded by ``load``, else imported the ordinary way
+    (once per process: :func:`closedloop.loading.one_time` leaves it out of a run's cpu_time)."""
     if name not in _loaded:
-        module = sys.modules.get(name)
-        if module is None:
-            try:
-                module = load()
-            except Exception:               # another layout of scipy: import it (and scipy.integrate)
-                module = importlib.import_module(name)
-        _loaded[name] = module
+        with one_time():
+            module = sys.modules.get(name)
+            if module is None:
+                try:
+                    module = load()
+                except Exception:           # another layout of scipy: import it (and scipy.integrate)
+                    module = importlib.import_module(name)
+            _loaded[name] = module
     return _loaded[name]
 
 

@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from ..errors import ClosedLoopError, IntegrationError, SingularConfigurationError
-from ..methods import solver_classes
+from ..methods import scipy_integrate, solver_classes
 
 __all__ = ["segment", "counting_solver", "SOLVER_CLASSES", "STANDING_STEPS"]
 
@@ -42,9 +42,7 @@ def _solve_ivp():
     may replace)."""
     function = globals().get("solve_ivp")
     if function is None:
-        from scipy.integrate import solve_ivp as function
-
-        globals()["solve_ivp"] = function
+        function = globals()["solve_ivp"] = scipy_integrate().solve_ivp
     return function
 
 
