@@ -24,6 +24,10 @@ ROOT = Path(__file__).resolve().parents[1]
 CLAIMS = [
     ("02-lagrange-multipliers.md", "ch02-vertical-over-half-weight",
      "presses the slider down onto its guide", ()),
+    ("02-lagrange-multipliers.md", "ch02-lambda1-negative-from",
+     "is negative around the outer dead centre", ()),
+    ("02-lagrange-multipliers.md", "ch02-lambda1-negative-to",
+     "is negative around the outer dead centre", ()),
     ("02-lagrange-multipliers.md", "ch02-position-drift-exponent",
      "Both exponents", ()),
     ("02-lagrange-multipliers.md", "ch02-velocity-drift-exponent",
