@@ -46,6 +46,14 @@ def _gesv():
     return dgesv
 
 
+@first_use
+def _qr():
+    """scipy.linalg's QR factorisation, imported on first use (scipy.linalg costs about 0.2 s to import)."""
+    from scipy.linalg import qr
+
+    return qr
+
+
 def solve_dense(A, b):
     """Solve ``A x = b`` for a square real A (n >= 3) by LAPACK's ``dgesv``, the routine numpy.linalg.solve
     calls too: the same LU with partial pivoting, without numpy's checks and dispatch, which cost 3 of
@@ -235,7 +243,5 @@ def null_space_basis(Phi, basis="svd", t=None):
         )
     if basis == "svd":
         return Vt[r:].T
-    from scipy.linalg import qr           # here only: importing scipy.linalg costs about 0.2 s
-
-    pivots = qr(Phi, mode="r", pivoting=True)[1]
+    pivots = _qr()(Phi, mode="r", pivoting=True)[1]
     return orthogonal_complement(Phi, np.sort(pivots[r:]), np.sort(pivots[:r]), t)

@@ -1,8 +1,10 @@
 """Modules loaded on first use, and the process time their loading took.
 
 The library imports scipy.integrate (about 0.3 s, with scipy.linalg, scipy.optimize, scipy.sparse
-and scipy.special), scipy.linalg's LAPACK (about 0.2 s) and scipy's compiled DOP853 only when
-something needs them, so that the command line answers without the ones it does not use (issue 14).
+and scipy.special), scipy.linalg (about 0.2 s: LAPACK's dgesv, QR), scipy.optimize (the search for a
+change point) and scipy's compiled DOP853 only when something needs them, and loads generated code
+once per system (:mod:`closedloop.codecache`), so that the command line answers without the ones
+it does not use (issue 14).
 Such a load is the process's, once: it is not part of the run during which it happens.  A run's
 ``cpu_time`` (:func:`closedloop.simulate`) is the difference of two readings of :func:`run_clock`,
 which leaves the loads made between them out (without that, the first run of a process counted

@@ -36,6 +36,7 @@ import numpy as np
 
 from .. import hermite
 from ..errors import SingularConfigurationError
+from ..loading import first_use
 
 
 __all__ = ["PathWatch", "singular_values", "find_change_point", "change_point_error", "CHANGE_POINT_LIMIT", "REFINE_BELOW"]
@@ -54,6 +55,14 @@ CHANGE_POINT_LIMIT = 0.5
 #: Local minima of sigma_min / sigma_max below this are refined on the interpolant; above it the
 #: constraints are far from dependent and the step ends suffice.
 REFINE_BELOW = 0.1
+
+
+@first_use
+def _optimize():
+    """scipy.optimize's ``(brentq, minimize_scalar)``, imported on first use (it costs about 0.1 s)."""
+    from scipy.optimize import brentq, minimize_scalar
+
+    return brentq, minimize_scalar
 
 
 def singular_values(jacobians):
@@ -102,7 +111,7 @@ def _refine(system, times, s, sd, k, beyond=None):
     end, where the run failed) the last step's interpolant is also followed, extrapolated,
     up to that time.
     """
-    from scipy.optimize import brentq, minimize_scalar   # here only: importing scipy.optimize costs about 0.1 s
+    brentq, minimize_scalar = _optimize()
 
     last = times.size - 1
     pieces = [(a, times[a], times[a + 1]) for a in (k - 1, k) if 0 <= a < last and times[a + 1] > times[a]]
