@@ -169,6 +169,7 @@ def test_the_extension_is_loaded_from_scipy_s_folder_without_scipy_integrate():
 
 
 _DENSE_OUTPUT_CALL = """
+import sys
 import numpy as np
 from closedloop.simulation import dop853_code
 n = 2
@@ -176,8 +177,9 @@ work = np.zeros(11 * n + 8 * n + 21)       # room for the 8 n coefficients of th
 work[1], work[2], work[3] = dop853_code.SAFETY, dop853_code.DFACTOR, dop853_code.IFACTOR
 iwork = np.zeros(21 + n, dtype=np.int32)
 iwork[4] = n                                # dense output of every component
+iout = int(sys.argv[1])                     # 2: dense output; 1: the same call without it
 dop853_code.extension().dopri853(lambda t, y: [y[1], -y[0]], 0.0, np.array([1.0, 0.0]), 10.0, 1e-8, 1e-10,
-                                 lambda t, y: 0, 2, work, iwork, 100000, -1, ())
+                                 lambda t, y: 0, iout, work, iwork, 100000, -1, ())
 print("returned")
 """
 
@@ -187,6 +189,11 @@ def test_the_codes_own_dense_output_still_crashes():
     iout = 2 moves its pointer nfcn instead of the count, and the process dies.  When this fails, a scipy
     has fixed it, and the code's own coefficients (read in ``solout`` from the work array) are the faster route
     to the outputs; the docstring is then stale."""
-    done = subprocess.run([sys.executable, "-c", _DENSE_OUTPUT_CALL], capture_output=True, text=True,
-                          env={**os.environ, "PYTHONFAULTHANDLER": ""}, timeout=120)
+    def call(iout):
+        return subprocess.run([sys.executable, "-c", _DENSE_OUTPUT_CALL, str(iout)], capture_output=True, text=True,
+                              env={**os.environ, "PYTHONFAULTHANDLER": ""}, timeout=120)
+
+    control = call(1)                       # the same arrays and call without dense output: it returns
+    assert control.returncode == 0 and "returned" in control.stdout, control.stderr[-500:]
+    done = call(2)
     assert done.returncode < 0 and "returned" not in done.stdout, done.stderr[-500:]   # killed by a signal

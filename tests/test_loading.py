@@ -16,23 +16,26 @@ case = get_case(2)
 state = initial_state(system, case.phi0, case.dphi0)
 assert "scipy.integrate" not in sys.modules and "scipy.linalg" not in sys.modules
 process, loads = time.process_time(), loading.load_time()
-first = simulate(system, state, 1.0, formulation=Augmented(), method="RK45")
+first = simulate(system, state, 5.0, formulation=Augmented(), method="RK45")
 process, loads = time.process_time() - process, loading.load_time() - loads
 assert "scipy.integrate" in sys.modules and "scipy.linalg" in sys.modules
-print(first.cpu_time, process, loads)
+second = simulate(system, state, 5.0, formulation=Augmented(), method="RK45")
+print(first.cpu_time, second.cpu_time, process, loads)
 """
 
 
 def test_the_first_run_of_a_process_leaves_its_imports_out():
     """In a fresh process, the first solve_ivp run with the augmented system imports scipy.integrate and
-    scipy.linalg's LAPACK (0.3 to 0.5 s here): the loads are counted, and cpu_time is the process time
-    less them (a few clock ticks of slack), so it is far below the process time of the call."""
+    scipy.linalg's LAPACK (0.3 to 0.5 s here): the loads are counted, and the first run's cpu_time is
+    that of the same run after it (within a factor of 2: one process, one machine), not the process
+    time of the call.  (A load block that also covered the run's own work would make it far smaller.)"""
     done = subprocess.run([sys.executable, "-c", _FRESH_PROCESS], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr[-2000:]
-    cpu_time, process, loads = map(float, done.stdout.split())
+    first, second, process, loads = map(float, done.stdout.split())
     assert loads > 0.05                               # the imports happened inside the run, and were counted
-    assert abs(cpu_time - (process - loads)) <= 0.005
-    assert cpu_time < 0.5 * process
+    assert second > 0.02                              # a run long enough to be timed
+    assert 0.5 * second < first < 2.0 * second + 0.005
+    assert first < process - loads + 0.005
 
 
 def _busy(seconds):
