@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from closedloop import Baumgarte, InitialState, InputError, IntegrationError, Minimal, simulate
-from closedloop.slider_crank import CASES, initial_state
+from closedloop.slider_crank import CASES, get_case, initial_state
 
 LONG = 200.0
 
@@ -176,3 +176,25 @@ def test_the_rule_decides_one_state_as_it_decides_many():
         assert type(one[0]) is bool and type(one[1]) is bool
     assert switching.decide(1.0, -1.0, False) == (False, True)       # both push onto the surface: it sticks
     assert switching.decide(-1.0, -1.0, True) == (False, False)      # both leave to the off side
+
+
+def test_a_naive_run_with_projected_projects(slider_crank):
+    """switching='naive' runs the formulation's own integrator: Projected resets f and f' after every step
+    (its residuals at round-off), where the augmented system it projects drifts to the tolerance."""
+    from closedloop import Augmented, Projected
+
+    state = initial_state(slider_crank, get_case(2).phi0, get_case(2).dphi0)
+    settings = dict(method="RK45", rtol=1e-6, atol=1e-6, switching="naive")
+    projected = simulate(slider_crank, state, 3.0, formulation=Projected(), **settings)
+    augmented = simulate(slider_crank, state, 3.0, formulation=Augmented(), **settings)
+    assert augmented.max_constraint_error > 1e-7
+    assert projected.max_constraint_error < 1e-12 and projected.max_velocity_constraint_error < 1e-10
+
+
+@pytest.mark.parametrize("option", [dict(stop_when=lambda t, s, sd: t - 1.0), dict(work=True)],
+                         ids=["stop_when", "work"])
+def test_a_naive_run_refuses_what_it_does_not_do(slider_crank, option):
+    state = initial_state(slider_crank, get_case(2).phi0, get_case(2).dphi0)
+    name = next(iter(option))
+    with pytest.raises(InputError, match=rf"^{name}: a run with switching='naive' neither stops early"):
+        simulate(slider_crank, state, 3.0, switching="naive", **option)

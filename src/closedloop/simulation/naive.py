@@ -50,7 +50,8 @@ def integrate_naive(run, t0, s0, sd0):
     unpack = formulation.unpacker(system)
     unpack.seed(s0)
     changes = np.zeros(len(run.names), dtype=int)
-    solver_class = solver_classes()[options.method] if isinstance(options.method, str) else options.method
+    method = formulation.integrator(system, options.method)         # Projected: with its projection
+    solver_class = solver_classes()[method] if isinstance(method, str) else method
     solver = solver_class(_rhs_choosing_branch(run, unpack, changes), t0, formulation.pack(system, s0, sd0),
                           run.t_end, rtol=options.rtol, atol=options.atol, **options.solver_options)
     t_eval = options.t_eval

@@ -282,6 +282,10 @@ def run_options(system, initial_state, formulation, *, t_start, t_end, method, r
     rtol, atol = (_tolerance_entries(name, value, system, initial_state, formulation, method, work)
                   for name, value in (("rtol", rtol), ("atol", atol)))
     t_eval = _check_output_times(t_eval, t_start, t_end)
+    if switching == "naive" and (stop_when is not None or work):
+        name = "stop_when" if stop_when is not None else "work"
+        raise InputError(f"{name}: a run with switching='naive' neither stops early nor integrates the work; "
+                         "use switching='events'")
     if stop_when is not None and not callable(stop_when):
         raise InputError("stop_when: expected a callable stop_when(t, s, sd) -> float")
     return RunOptions(t_start=t_start, t_end=t_end, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
