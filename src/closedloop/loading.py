@@ -1,7 +1,7 @@
 """Modules loaded on first use, and the process time their loading took.
 
-The library imports scipy.integrate (about 0.3 s, with scipy.linalg, scipy.optimize, scipy.sparse
-and scipy.special), scipy.linalg (about 0.2 s: LAPACK's dgesv, QR), scipy.optimize (the search for a
+The library imports scipy.integrate (0.3 to 0.5 s of process time, with scipy.linalg, scipy.optimize,
+scipy.sparse and scipy.special), scipy.linalg (0.2 to 0.3 s: LAPACK's dgesv, QR), scipy.optimize (the search for a
 change point) and scipy's compiled DOP853 only when something needs them, and loads generated code
 once per system (:mod:`closedloop.codecache`), so that the command line answers without the ones
 it does not use (issue 14).

@@ -14,7 +14,7 @@ small for the mechanisms of this book, the inverses are formed symbolically
 in, common subexpressions are shared, and the result is generated as one
 ``math``-module function of floats.  At run time there is no matrix assembly
 and no linear solve: for the slider-crank one call costs about 1.5 µs against
-about 20 µs for assembling and solving (12) with numpy.
+about 15 µs for assembling and solving (12) with numpy.
 
 For an integration segment, where the branch (``mode``) of a switched force
 and the gains are fixed, :func:`closed_form_rhs` goes one step further: when the

@@ -64,7 +64,8 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
         ``stop_when(t, s, sd) -> float``: the run ends early, at the time this
         crosses zero upward (e.g. a speed limit for a run-away motion).  The
         result's ``stopped_at`` is then that time.  It is not evaluated
-        while the mechanism is stuck (its state is then constant).
+        while the mechanism is stuck (its state is then constant).  Not with
+        ``switching="naive"``.
     sticking_resolution : float, optional
         Sampling interval (s) for the release of a stuck state.
     max_segments : int, optional
@@ -84,7 +85,8 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
         method on a stiff problem.
     work : bool, optional
         Also integrate the work of the non-conservative forces (the result's
-        ``work``), for the energy balance ``Delta(T + Pi) = W``.
+        ``work``), for the energy balance ``Delta(T + Pi) = W``.  Not with
+        ``switching="naive"``.
     branch_limit : float, optional
         The branch guard's bound on the Kantorovich number where det Phi_z
         changes sign (default :data:`BRANCH_LIMIT`; ``math.inf`` turns the guard

@@ -15,8 +15,8 @@ from a segment:
 - the crossing is then located: a cubic Hermite interpolant over the step
   (from the states and right-hand sides at both ends) gives a first estimate,
   the step is redone from its start to that time with the same code, and
-  Newton steps in time (each a second-order Taylor step of the state, which
-  is exact to round-off for the microsecond corrections left) put the
+  Newton steps in time (each a Heun step of the state for the microsecond
+  corrections left, else the step redone by the same code) put the
   switching function at zero.
 
 Requested output times do not stop the code: it steps from ``t0`` to the end as
@@ -70,7 +70,8 @@ DEFAULT_NSTEPS = 200_000
 #: with 0.3 each rejection cost 11 evaluations and two steps of 0.3 h.  The slider-crank's rejected
 #: steps (the four cases, closed form, rtol 2e-9) had err from 1 to 36, for which Hairer's rule
 #: retries at 0.57 h to 0.9 h; with 0.6 a retry passes for err < 0.6^-8 = 60.  ``fac1`` bounds
-#: nothing else: an accepted step (err <= 1) never shrinks below ``safe`` = 0.9 of the last.  In a
+#: nothing else: an accepted step (err <= 1) shrinks to no less than ``safe`` = 0.9 of the last with
+#: beta = 0, and to about 0.62 of it with :data:`STEP_CONTROL_BETA` (0.9 x 1e-4^0.04).  In a
 #: scipy whose code follows Hairer's rule, 0.6 is only its floor.
 REJECTION_FACTOR = 0.6
 #: The compiled code's ``beta`` here (scipy's default 0): after an accepted step with error

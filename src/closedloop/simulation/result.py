@@ -73,8 +73,9 @@ class SimulationResult:
         Right-hand-side evaluations, summed over all segments.
     cpu_time : float
         Process time of the run in seconds (integration, switching, outputs; not the
-        residuals at the outputs, computed when first read, nor the loading of modules
-        that the process imports on first use: :mod:`closedloop.loading`).
+        residuals at the outputs, computed when first read, nor the multipliers of (5),
+        nor the loading of modules that the process imports on first use:
+        :mod:`closedloop.loading`).
     switch_events : list of SwitchEvent
     sticking_intervals : list of (float, float)
         Time intervals spent stuck (see :mod:`closedloop.simulation.switching`).

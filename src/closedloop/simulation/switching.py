@@ -57,7 +57,7 @@ MAX_STALLS = 50
 RELEASE_XTOL = 1e-12
 #: Rates of a switching function at or below RATE_FLOOR x (1 + max|state|) on both branches say
 #: nothing: the contact is degenerate (a start at rest at a dead centre, where x_C' = 0 and x_C'' = 0
-#: whatever the branch), and the branch is chosen by probing (see probe_time).
+#: whatever the branch), and the branch is chosen by probing (see :func:`probe` and :data:`PROBE_TIME`).
 RATE_FLOOR = 1e-10
 #: How long each branch's own motion is followed from a degenerate contact [s]; its switching
 #: value then plays the part of the rate in decide().  At a dead centre at rest x_C' grows like
