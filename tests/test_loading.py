@@ -16,10 +16,10 @@ case = get_case(2)
 state = initial_state(system, case.phi0, case.dphi0)
 assert "scipy.integrate" not in sys.modules and "scipy.linalg" not in sys.modules
 process, loads = time.process_time(), loading.load_time()
-first = simulate(system, state, 5.0, formulation=Augmented(), method="RK45")
+first = simulate(system, state, 20.0, formulation=Augmented(), method="RK45")
 process, loads = time.process_time() - process, loading.load_time() - loads
 assert "scipy.integrate" in sys.modules and "scipy.linalg" in sys.modules
-second = simulate(system, state, 5.0, formulation=Augmented(), method="RK45")
+second = simulate(system, state, 20.0, formulation=Augmented(), method="RK45")
 print(first.cpu_time, second.cpu_time, process, loads)
 """
 
