@@ -17,7 +17,7 @@ from __future__ import annotations
 from .loading import first_use
 
 __all__ = ["SOLVE_IVP_METHODS", "COMPILED_METHOD", "SOLVER_METHODS", "SOLVER_CLASSES",
-           "EXPLICIT_RUNGE_KUTTA_METHODS", "IMPLICIT_METHODS", "solver_classes", "scipy_integrate"]
+           "EXPLICIT_RUNGE_KUTTA_METHODS", "IMPLICIT_METHODS", "solver_classes", "solver_class", "scipy_integrate"]
 
 #: The methods of ``scipy.integrate.solve_ivp``, by name and in the order the book lists them.
 SOLVE_IVP_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
@@ -42,6 +42,11 @@ def solver_classes():
         integrate = scipy_integrate()
         classes = globals()["SOLVER_CLASSES"] = {name: getattr(integrate, name) for name in SOLVE_IVP_METHODS}
     return classes
+
+
+def solver_class(method):
+    """The OdeSolver class of ``method``: a name of :data:`SOLVE_IVP_METHODS`, or a class, given back."""
+    return solver_classes()[method] if isinstance(method, str) else method
 
 
 @first_use

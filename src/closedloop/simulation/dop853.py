@@ -94,6 +94,11 @@ _RETURN_CODES = {
 }
 
 
+def _reason(code, nsteps):
+    """What the compiled code's return ``code`` (< 0) means, for a call that allowed ``nsteps`` step attempts."""
+    return _RETURN_CODES.get(code, f"code {code}").format(nsteps=nsteps)
+
+
 @dataclass
 class Segment:
     """What one call of :func:`integrate_segment` produced.
@@ -210,8 +215,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                                       y0.size)
         if code < 0:
             error = IntegrationError(
-                f"ode.dop853 failed at t = {t_code:.6g} s: "
-                f"{_RETURN_CODES.get(code, f'code {code}').format(nsteps=nsteps)}. "
+                f"ode.dop853 failed at t = {t_code:.6g} s: {_reason(code, nsteps)}. "
                 "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains")
             error.return_code, error.t, error.max_steps_reached = code, float(t_code), False
             raise _with_path(error, watch)
@@ -814,6 +818,6 @@ def _redo(rhs, ta, ya, t, rtol, atol):
     if code < 0:
         raise IntegrationError(
             f"ode.dop853 failed at t = {t_code:.6g} s while locating a switch: "
-            f"{_RETURN_CODES.get(code, f'code {code}').format(nsteps=DEFAULT_NSTEPS)}. Try a solve_ivp method"
+            f"{_reason(code, DEFAULT_NSTEPS)}. Try a solve_ivp method"
         )
     return np.array(y, dtype=float)

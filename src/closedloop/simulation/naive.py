@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..methods import solver_classes
+from ..methods import solver_class
 from .result import Piece
 
 __all__ = ["integrate_naive"]
@@ -50,9 +50,8 @@ def integrate_naive(run, t0, s0, sd0):
     unpack = formulation.unpacker(system)
     unpack.seed(s0)
     changes = np.zeros(len(run.names), dtype=int)
-    method = formulation.integrator(system, options.method)         # Projected: with its projection
-    solver_class = solver_classes()[method] if isinstance(method, str) else method
-    solver = solver_class(_rhs_choosing_branch(run, unpack, changes), t0, formulation.pack(system, s0, sd0),
+    # the formulation's integrator: Projected's with its projection
+    solver = solver_class(formulation.integrator(system, options.method))(_rhs_choosing_branch(run, unpack, changes), t0, formulation.pack(system, s0, sd0),
                           run.t_end, rtol=options.rtol, atol=options.atol, **options.solver_options)
     t_eval = options.t_eval
     if t_eval is None:
@@ -70,8 +69,7 @@ def integrate_naive(run, t0, s0, sd0):
             message = (f"{options.method_name} failed at t = {solver.t:.6g} s with naive switching "
                        f"(step size {solver.step_size:.3g} s); use switching='events'")
             break
-        run.step_starts.append(solver.t_old)
-        run.step_sizes.append(solver.t - solver.t_old)
+        run.record_step(solver.t_old, solver.t)
         if t_eval is None:
             times.append(solver.t)
             states.append(solver.y.copy())

@@ -67,6 +67,11 @@ class Run:
         self.path = change_points.PathWatch(system, formulation, options)
 
     # -- what every runner shares -------------------------------------------------
+    def record_step(self, start, end):
+        """An accepted step from ``start`` to ``end`` [s] (the compiled runner adds a segment's steps at once)."""
+        self.step_starts.append(start)
+        self.step_sizes.append(abs(end - start))
+
     def evaluations_left(self):
         return math.inf if self.options.max_nfev is None else self.options.max_nfev - self.nfev
 

@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from ..errors import ClosedLoopError, IntegrationError, SingularConfigurationError
-from ..methods import scipy_integrate, solver_classes
+from ..methods import scipy_integrate, solver_class, solver_classes
 
 __all__ = ["segment", "counting_solver", "SOLVER_CLASSES", "STANDING_STEPS"]
 
@@ -59,7 +59,7 @@ def counting_solver(run, method):
 
     It stops the integration (a failed step) when the run's ``max_steps`` is reached.
     """
-    base = solver_classes()[method] if isinstance(method, str) else method
+    base = solver_class(method)
     max_steps = run.options.max_steps
     watch = run.path.active
 
@@ -76,8 +76,7 @@ def counting_solver(run, method):
             elif success:
                 self.standing = 0
             if success and self.t != t_before:
-                run.step_starts.append(t_before)
-                run.step_sizes.append(abs(self.t - t_before))
+                run.record_step(t_before, self.t)
                 run.t_reached = self.t
                 if watch:
                     run.path.record(self.t, self.y)
