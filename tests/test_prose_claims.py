@@ -1,8 +1,9 @@
 """Numbers that the chapters' prose states about a computed result are glued from the computation.
 
 Each entry of `CLAIMS` names a chapter, a glue key and a few words of the sentence that states the
-number. For each claim the test checks, without executing the chapter (tests/test_chapters.py does
-that, and checks there that each key is produced as a number):
+number. For each claim the test checks, without executing the chapter (the book's build executes it,
+and with ``-W`` a glue key that no cell produces, or a value its format spec cannot take, fails the
+build):
 
 - the sentence exists in a markdown cell and pastes the key with ``{glue:text}`key...` `` (or
   ``{glue}`key` ``);
