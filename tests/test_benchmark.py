@@ -11,6 +11,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from closedloop.errors import InputError
 from closedloop.studies.benchmark import (BASELINE_KEY, QUICK_SETTINGS, REFERENCE_METHOD, REFERENCE_TOL, Entry,
                                           StudySettings, cheapest_choices, performance_ratios, run_study,
                                           source_fingerprint, study_entries)
@@ -209,3 +210,32 @@ def test_the_plateau_rule_stops_only_at_an_error_floor(monkeypatch, errors, rows
     assert len(rows) == rows_run
     assert rows[-1]["curve_end"] == ("tightest rtol" if rows_run == len(errors) else
                                      f"error plateau: not halved for {settings.plateau} tolerances")
+
+
+def test_the_runs_use_the_settings_times_and_measure_at_t_check_itself():
+    """``t_end`` and ``t_check`` of the settings are the runs' own (they are recorded as provenance),
+    and error_t10 is the error at t_check even when the even grid does not hold it (here 0.73 s on a
+    0.5 s grid): the same number as a run and a reference computed by themselves at that time."""
+    from closedloop import ClosedForm, Minimal, simulate
+    from closedloop.slider_crank import get_case, initial_state, slider_crank_system
+
+    settings = StudySettings(cases=(2,), methods=("DOP853",), rtols=(1e-6,), repeats=1, t_end=2.0, t_check=0.73,
+                             grid_points=5)
+    data = run_study(settings, entries=[Entry("closed-form", "Closed form", ClosedForm(1, 1), ("DOP853",))])
+    (row,) = data["rows"]
+    system, case = slider_crank_system(), get_case(2)
+    state = initial_state(system, case.phi0, case.dphi0)
+    times = (0.73, 2.0)
+    run = simulate(system, state, 2.0, formulation=ClosedForm(1, 1), method="DOP853", rtol=1e-6, atol=1e-6,
+                   t_eval=times)
+    reference = simulate(system, state, 2.0, formulation=Minimal(), method=REFERENCE_METHOD, rtol=REFERENCE_TOL,
+                         atol=REFERENCE_TOL, t_eval=times)
+    expected = np.abs(np.concatenate((run.s[:, 0] - reference.s[:, 0], run.sd[:, 0] - reference.sd[:, 0]))).max()
+    assert row["status"] == "ok", row["status"]
+    assert row["error_t10"] == pytest.approx(expected, rel=1e-9)
+    assert data["settings"]["t_end"] == 2.0 and data["settings"]["t_check"] == 0.73
+
+
+def test_a_check_time_outside_the_run_is_refused():
+    with pytest.raises(InputError, match="t_check"):
+        run_study(StudySettings(cases=(2,), methods=("DOP853",), rtols=(1e-3,), repeats=1, t_end=5.0, t_check=10.0))

@@ -49,8 +49,9 @@ from loose to tight, and the curve stops
 A failed run (its row records the message, with ``status`` "failed: ...")
 does not stop the curve: tighter tolerances may succeed.
 
-The row where a curve stopped says why, in ``curve_end``.  And every method
-runs in the main case (case 2, the full rotation the paper starts from); the
+The row where a curve stopped says why, in ``curve_end``.  And every entry runs
+all of its methods (:attr:`Entry.methods`) in the main case (case 2, the full
+rotation the paper starts from); the
 other cases run ``other_case_methods`` only (DOP853, the explicit method of
 highest order, and the compiled ode.dop853), which keeps the default study under
 ten minutes on two cores.  So that the baseline is not held to methods that do not
@@ -118,7 +119,8 @@ class Entry:
         A closedloop formulation for :func:`closedloop.simulate`; None for the
         sympy.physics.mechanics baseline.
     methods : tuple of str
-        The solve_ivp methods it can run (the settings may select fewer).
+        The methods it runs, when the settings select them (default: solve_ivp's
+        five of :data:`SOLVE_IVP_METHODS`; the closed form also runs ode.dop853).
     """
 
     key: str
@@ -193,7 +195,7 @@ class StudySettings:
 
 
 DEFAULT_SETTINGS = StudySettings()
-#: The quick study: case 2 only, DOP853 only, three tolerances, one repeat (well under a minute).
+#: The quick study: case 2 only, DOP853 and ode.dop853, three tolerances, one repeat (well under a minute).
 QUICK_SETTINGS = StudySettings(quick=True, cases=(2,), methods=("DOP853", "ode.dop853"), other_case_methods=(),
                                rtols=(1e-3, 1e-6, 1e-9), repeats=1, time_cap_s=0.5)
 
@@ -244,20 +246,22 @@ class _Context:
     system: object
     baseline: object
     state: object
-    grid: np.ndarray
-    check_index: int
-    reference: np.ndarray           # 6 x GRID_POINTS
+    grid: np.ndarray                # the output grid over [0, t_end], t_check among its times
+    check_index: int                # where t_check is in the grid
+    reference: np.ndarray           # 6 x grid.size
+    t_end: float = T_END
+    t_check: float = T_CHECK
 
 
 def _run(entry, context, method, rtol, t_eval, residuals=False):
     """One run: ``(t, y (6 x N), nfev)``, and ``(|f|, |f'|)`` at the output times if asked."""
     if entry.formulation is None:
-        res = context.baseline.simulate(context.state, T_END, method, rtol, rtol, t_eval=t_eval)
+        res = context.baseline.simulate(context.state, context.t_end, method, rtol, rtol, t_eval=t_eval)
         y = np.vstack((res.s, res.sd))
         norms = _residuals(context.system, y) if residuals else None
     else:
-        res = simulate(context.system, context.state, T_END, formulation=entry.formulation, method=method,
-                       rtol=rtol, atol=rtol, t_eval=t_eval)
+        res = simulate(context.system, context.state, context.t_end, formulation=entry.formulation,
+                       method=method, rtol=rtol, atol=rtol, t_eval=t_eval)
         y = np.vstack((res.s, res.sd))
         norms = (res.constraint_error, res.velocity_constraint_error)     # simulate computed them
     return (res.t, y, res.nfev, norms) if residuals else (res.t, y, res.nfev)
@@ -283,9 +287,9 @@ def _measure(entry, context, case, method, rtol, repeats):
         cpu = []
         for _ in range(max(1, repeats)):
             start = time.process_time()
-            t_timed, y_timed, nfev = _run(entry, context, method, rtol, (T_CHECK, T_END))
+            t_timed, y_timed, nfev = _run(entry, context, method, rtol, (context.t_check, context.t_end))
             cpu.append(time.process_time() - start)
-        if t_timed.size != 2 or t_timed[0] != T_CHECK:
+        if t_timed.size != 2 or t_timed[0] != context.t_check:
             raise ClosedLoopError(f"the timed run stopped at t = {t_timed[-1]:.6g} s")
     except ClosedLoopError as error:
         row.update(status=f"failed: {error}", cpu_s=None, cpu_repeats_s=[], nfev=None, error_t10=None,
@@ -325,12 +329,19 @@ def _curve(entry, context, case, method, settings):
     return rows
 
 
+def _grid(settings):
+    """``(grid, check_index)``: ``grid_points`` even times over ``[0, t_end]``, with ``t_check`` added unless
+    it is one of them (the errors at t_check are measured there, not at the nearest grid time)."""
+    grid = np.union1d(np.linspace(0.0, settings.t_end, settings.grid_points), [settings.t_check])
+    return grid, int(np.searchsorted(grid, settings.t_check))
+
+
 def _reference(system, state, grid, check_index):
-    """The reference on the grid and its agreement with the rtol = 1e-12 solution."""
+    """The reference on the grid (which ends at t_end) and its agreement with the rtol = 1e-12 solution."""
     runs = {}
     for tol in (REFERENCE_TOL, REFERENCE_CHECK_TOL):
-        res = simulate(system, state, T_END, formulation=Minimal(), method=REFERENCE_METHOD, rtol=tol, atol=tol,
-                       t_eval=grid)
+        res = simulate(system, state, float(grid[-1]), formulation=Minimal(), method=REFERENCE_METHOD, rtol=tol,
+                       atol=tol, t_eval=grid)
         runs[tol] = (np.vstack((res.s, res.sd)), res.cpu_time)
     difference = np.abs(runs[REFERENCE_TOL][0] - runs[REFERENCE_CHECK_TOL][0])
     check = {"agreement_t10": float(difference[:, check_index].max()),
@@ -362,12 +373,13 @@ def run_study(settings=DEFAULT_SETTINGS, entries=None, progress=None):
             raise InputError(f"methods: unknown {method!r}; choose from {', '.join(SOLVER_METHODS)}")
     for case in settings.cases:
         get_case(case)
+    if not 0.0 < settings.t_check < settings.t_end:
+        raise InputError(f"t_check: must lie in (0, t_end = {settings.t_end:g}) s, got {settings.t_check!r}")
     wall = time.perf_counter()
     entries = study_entries() if entries is None else tuple(entries)
     system = slider_crank_system()
     baseline = LagrangesBaseline(system.parameters, system.reading)
-    grid = np.linspace(0.0, T_END, settings.grid_points)
-    check_index = int(np.argmin(np.abs(grid - T_CHECK)))
+    grid, check_index = _grid(settings)
     data = _provenance(settings)
     data.update(baseline_derivation_cpu_s=baseline.derivation_cpu_time, references={}, rows=[])
     for case in settings.cases:
@@ -375,7 +387,7 @@ def run_study(settings=DEFAULT_SETTINGS, entries=None, progress=None):
         state = initial_state(system, number.phi0, number.dphi0)
         reference, check = _reference(system, state, grid, check_index)
         data["references"][str(case)] = check
-        context = _Context(system, baseline, state, grid, check_index, reference)
+        context = _Context(system, baseline, state, grid, check_index, reference, settings.t_end, settings.t_check)
         for entry in entries:
             for method in (m for m in settings.methods_of(case, entry.key) if m in entry.methods):
                 rows = _curve(entry, context, case, method, settings)
