@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from closedloop import (Baumgarte, ClosedForm, IntegrationError, InputError, Minimal, Orthogonal,
-                        SingularConfigurationError, simulate)
+from closedloop import (Augmented, Baumgarte, ClosedForm, IntegrationError, InputError, Minimal, Orthogonal,
+                        Projected, SingularConfigurationError, simulate)
 from closedloop.fixed_step import (baumgarte_roots, rk4, rk4_baumgarte_growth, rk4_baumgarte_stable,
                                    rk4_real_axis_limit, rk4_stability_function, rk4_stability_map)
 from closedloop.slider_crank import CASES, SliderCrankParameters, initial_state, slider_crank_system
@@ -100,6 +100,26 @@ def test_rk4_takes_every_formulation_and_closed_form_is_baumgarte(smooth_slider_
     assert closed.diverged_at is None and closed.t[-1] == pytest.approx(1.0)
     assert np.max(np.abs(closed.s - baumgarte.s)) < 1e-10
     assert abs(closed.s[0, -1] - closed.s[0, 0]) > 0.1                  # the crank turned
+
+
+def test_rk4_refuses_projected_which_it_would_run_unprojected(smooth_slider_crank):
+    """Projected's projection lives in solve_ivp's steps; rk4 ran it as the plain augmented system
+    (the same states to the last bit) without a word."""
+    state = initial_state(smooth_slider_crank, 1.0, 1.0)
+    with pytest.raises(InputError, match=r"^formulation: Projected cannot run"):
+        rk4(smooth_slider_crank, Projected(), state.s, state.sd, 1e-3, 10)
+    rk4(smooth_slider_crank, Augmented(), state.s, state.sd, 1e-3, 10)        # its unprojected twin runs
+
+
+def test_the_rk4_map_refuses_a_start_on_the_constraints(smooth_slider_crank):
+    """From a consistent start |f(0)| is round-off (about 1e-15 m), and the growth of |f| over it
+    called stable cells unstable (growths of 1e6 to 1e9); the map now refuses such a start."""
+    state = initial_state(smooth_slider_crank, 1.0, 1.0)
+    with pytest.raises(InputError, match=r"^s0: must lie off the constraints by \|f\(s0\)\| >= 1e-09 m"):
+        rk4_stability_map(smooth_slider_crank, state.s, state.sd, 1e-3, [0.1], [0.1], n_steps=5)
+    growth = rk4_stability_map(smooth_slider_crank, state.s + [0, 1e-4, 0], state.sd, 1e-3, [0.1], [0.1],
+                               n_steps=5)
+    assert 0.0 < growth[0, 0] < 1.0                                   # alpha dt = beta dt = 0.1: it decays
 
 
 def test_rk4_refuses_switched_forces_and_bad_steps(smooth_slider_crank):

@@ -31,7 +31,14 @@ __all__ = [
     "rk4_baumgarte_stable",
     "rk4_real_axis_limit",
     "rk4_stability_map",
+    "MIN_START_ERROR",
 ]
+
+#: The name :func:`rk4` gives itself when it asks a formulation whether it can run (``check_method``).
+RK4_METHOD = "rk4"
+#: The smallest |f(s0)| [m] that :func:`rk4_stability_map` starts from: far above the round-off of |f|
+#: (about 1e-15 m here), so that the growth it returns is that of the error equation (15).
+MIN_START_ERROR = 1e-9
 
 
 def rk4_stability_function(z):
@@ -130,7 +137,9 @@ def rk4(system, formulation, s0, sd0, step, n_steps, t_start=0.0, divergence=1e6
     system : System
         Without switched forces (this scheme does not stop at switches).
     formulation : Formulation
-        Any of the library's (:func:`closedloop.formulations.formulation_from_name`).
+        Any of the library's (:func:`closedloop.formulations.formulation_from_name`) that runs
+        with any method: :class:`~closedloop.formulations.Projected` projects inside solve_ivp's
+        steps, which this scheme does not take, and is refused (its ``check_method``).
     s0, sd0 : array_like, shape (n,)
     step : float
         dt > 0 [s].
@@ -147,13 +156,19 @@ def rk4(system, formulation, s0, sd0, step, n_steps, t_start=0.0, divergence=1e6
     Raises
     ------
     InputError
-        For a system with switched forces, a step <= 0, or n_steps < 1.
+        For a system with switched forces, a formulation that cannot run this scheme, a step <= 0,
+        or n_steps < 1.
     IntegrationError
         If the right-hand side overflows before the divergence test catches it.
     """
     if system.force is not None and system.force.switch_names:
         raise InputError("system: rk4 does not stop at switches; use a system without switched forces "
                          "(e.g. slider_crank_system(gas=False)) or simulate()")
+    try:
+        formulation.check_method(RK4_METHOD)
+    except InputError as error:
+        raise InputError(f"formulation: {type(formulation).__name__} cannot run this fixed-step scheme ({error}); "
+                         "use simulate()") from None
     positive_number("step", step, unit="s")
     positive_integer("n_steps", n_steps)
     s0 = np.asarray(s0, dtype=float)
@@ -204,8 +219,9 @@ def rk4_stability_map(system, s0, sd0, step, alpha_steps, beta_steps, n_steps=10
 
     For each pair the mechanism is integrated for ``n_steps`` steps of size
     ``step`` from the (inconsistent) state ``(s0, sd0)``, with
-    ``Baumgarte(alpha_dt / step, beta_dt / step)``.  A cell is *unstable* when
-    the constraint error ends larger than ``growth_limit`` times where it began.
+    ``Baumgarte(alpha_dt / step, beta_dt / step)``, and the growth of the
+    constraint error is returned: a cell is *unstable* when it ends larger than
+    ``growth_limit`` times where it began (the caller compares).
     For a system without ``force`` the cells run as one batch (the model's
     generated array functions, one stacked solve of (12) per stage), which
     agrees with :func:`rk4` cell by cell to round-off and costs a few percent
@@ -216,7 +232,9 @@ def rk4_stability_map(system, s0, sd0, step, alpha_steps, beta_steps, n_steps=10
     system : System
         Without switched forces.
     s0, sd0 : array_like
-        A state slightly off the constraints (``|f| > 0``).
+        A state slightly off the constraints: ``|f(s0)|`` at least
+        :data:`MIN_START_ERROR`, so that the growth measures the error equation (15),
+        not round-off.
     step : float
         dt [s]: small against the mechanism's own time scale, so that only the
         error dynamics (15) can make a step too long.
@@ -224,15 +242,28 @@ def rk4_stability_map(system, s0, sd0, step, alpha_steps, beta_steps, n_steps=10
         The grid of ``alpha dt`` and ``beta dt``.
     n_steps : int, optional
     growth_limit : float, optional
+        The growth the caller calls unstable.  It only sets where a cell stops:
+        once ``|f|`` exceeds ``1e3 max(growth_limit, 1)`` times where it began, so
+        that a diverging cell costs little.
 
     Returns
     -------
     growth : ndarray, shape (len(beta_steps), len(alpha_steps))
         ``|f|`` at the end over ``|f|`` at the start (a diverged run gives its
-        growth when it stopped, above 1e3 growth_limit).
+        growth when it stopped, above ``1e3 max(growth_limit, 1)``).
+
+    Raises
+    ------
+    InputError
+        For a start whose ``|f(s0)|`` is below :data:`MIN_START_ERROR`, before any step.
     """
     alpha_steps = np.asarray(alpha_steps, dtype=float)
     beta_steps = np.asarray(beta_steps, dtype=float)
+    start_error = float(np.linalg.norm(system.constraints(np.asarray(s0, dtype=float))))
+    if not start_error >= MIN_START_ERROR:
+        raise InputError(
+            f"s0: must lie off the constraints by |f(s0)| >= {MIN_START_ERROR:g} m, got {start_error:.3g}: the map "
+            "is the growth of |f| from there (perturb a dependent coordinate, as chapter 9 does)")
     if system.force is None:               # no force outside the model's own: every cell at once
         positive_number("step", step, unit="s")
         positive_integer("n_steps", n_steps)
