@@ -7,7 +7,8 @@ import pytest
 
 from closedloop import InputError
 from closedloop.cli import main
-from closedloop.studies.basin import MAX_ANGLE_PER_STEP, MAX_CELL_STEPS, MAX_STEPS, integrate_outcomes
+from closedloop.studies.basin import (MAX_ANGLE_PER_STEP, MAX_CELL_STEPS, MAX_STEPS, basin_map, grid_values,
+                                     integrate_outcomes)
 from closedloop.slider_crank import slider_crank_system
 
 
@@ -36,6 +37,27 @@ def test_a_map_of_hours_is_refused(system):
     cells, step = 20_000, 0.01                   # 1e5 steps each (MAX_STEPS): 2e9 cell-steps in all
     with pytest.raises(InputError, match=r"cell-steps, more than the 1e\+09 a map may take"):
         integrate_outcomes(system, np.zeros(cells), np.zeros(cells), MAX_STEPS * step, step)
+
+
+def test_the_work_limit_counts_the_whole_map_not_one_worker_s_share(monkeypatch):
+    """The limit was checked in each worker on its share, so two workers let a map of twice the limit
+    run. With the limit lowered to 3000 cell-steps, a 2 x 2 map of 1000 steps (4000 in all, 2000 a
+    worker) is refused with one worker and with two."""
+    import closedloop.studies.basin
+
+    monkeypatch.setattr(closedloop.studies.basin, "MAX_CELL_STEPS", 3000)
+    phi0, dphi0 = grid_values(0.0, 2 * math.pi, 2), grid_values(0.0, 1.0, 2)
+    for workers in (1, 2):
+        with pytest.raises(InputError, match=r"^t_end: 4 cells x t_end / step = 4e\+03 cell-steps"):
+            basin_map(phi0, dphi0, 1.0, step=1e-3, workers=workers)
+
+
+def test_a_grid_of_4m_angles_holds_a_quarter_and_a_half_turn_exactly():
+    """k (stop - start) / count missed pi/2 or pi by an ulp for 58 of m = 1 .. 399 (m = 11, 13, ...)."""
+    missed = [m for m in range(1, 400)
+              if not (grid_values(0.0, 2 * math.pi, 4 * m)[m] == math.pi / 2
+                      and grid_values(0.0, 2 * math.pi, 4 * m)[2 * m] == math.pi)]
+    assert missed == []
 
 
 def test_the_command_line_refuses_a_coarse_step_in_one_line(capsys):

@@ -77,11 +77,12 @@ __all__ = ["BasinMap", "BasinMotions", "basin_map", "integrate_outcomes", "refer
 DEFAULT_STEP = 0.02
 #: The largest angle the fastest rate of a map may turn in one step [rad] (see _check_step).
 #: Measured on an 8 x 8 map of the slider-crank (dphi0 < 6 rad/s, forcing period 1 s) against
-#: simulate: steps 0.02, 0.05 and 0.1 s give it cell for cell, 0.2 s gets 1 cell wrong, 1 s 4;
+#: simulate: steps 0.02, 0.05 and 0.1 s give it cell for cell, 0.2 s gets 1 cell wrong, 1 s 4 (measured
+#: before this bound; it now refuses 0.1 s there, since the forcing turns 2 pi x 0.1 = 0.63 rad in it);
 #: the book's convergence study (chapter 12) starts at 0.08 s, 0.5 rad of the forcing.
 MAX_ANGLE_PER_STEP = 0.6
-#: The most cell-steps (cells x t_end / step) a map may ask for: a 60 x 60 map over 20 s
-#: is 3.6e6 and takes about half a minute on one core, so 1e9 would take hours.
+#: The most cell-steps (cells x t_end / step) a map may ask for, over all its workers: a 60 x 60 map
+#: over 20 s is 3.6e6 and takes about half a minute on one core, so 1e9 would take hours.
 MAX_CELL_STEPS = 1e9
 #: Most steps of one map (t_end / step): a step of the batch costs about 1 ms, so 1e5 steps take some
 #: 100 s (a 20 s map down to a step of 2e-4 s); the book's maps take 1000.
@@ -100,7 +101,7 @@ def grid_values(start, stop, count, name="grid"):
     count = positive_integer(f"{name} count", count)
     if not math.isfinite(stop - start):                 # 1e308 - (-1e308): no spacing to take
         raise InputError(f"{name}: stop - start must be a finite number, got {stop:g} - {start:g}")
-    return start + (stop - start) * np.arange(count) / count
+    return start + (stop - start) * (np.arange(count) / count)     # k / count: exactly 1/4, 1/2 at k = m, 2m
 
 
 class _Model:
@@ -236,7 +237,8 @@ class BasinMotions:
 
 
 def _motion_times(t_end, sample):
-    """Times 0, sample, 2 sample, ... t_end [s] at which a map's motions are kept (``sample`` > 0 s)."""
+    """Times from 0 to t_end [s], at the spacing nearest ``sample`` (> 0 s) that divides t_end evenly
+    (``t_end / round(t_end / sample)``), at which a map's motions are kept."""
     t_end = positive_number("t_end", t_end, unit="s")
     sample = positive_number("motions", sample, unit="s")
     if sample > t_end:
@@ -300,11 +302,7 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
         if sample_times.ndim != 1 or np.any(sample_times < 0) or np.any(sample_times > t_end):
             raise InputError(f"sample_times: need a list of times within 0 .. t_end = {t_end:g} s")
         finish_early = False                         # every cell's motion is kept to t_end
-    work = phi0.size * t_end / step
-    if work > MAX_CELL_STEPS:
-        raise InputError(f"t_end: {phi0.size} cells x t_end / step = {work:.3g} cell-steps, more than the "
-                         f"{MAX_CELL_STEPS:.0e} a map may take (hours of CPU); use fewer cells, a shorter "
-                         "t_end or a larger step")
+    _check_work(phi0.size, t_end, step)
     model = _Model(system)
     initial_state = _start_rule(system, initial_state)
     cells = _initial_cells(system, model, phi0, dphi0, initial_state)
@@ -354,6 +352,15 @@ def _check_time(t_end, step):
     if t_end / step > MAX_STEPS:
         raise InputError(f"step: t_end/step would be {t_end / step:.3g} steps, more than {MAX_STEPS:g} (about 1 ms "
                          f"each); give a step >= {t_end / MAX_STEPS:.3g} s or a shorter t_end, got {step:g} s")
+
+
+def _check_work(cells, t_end, step):
+    """Refuse a map of more than :data:`MAX_CELL_STEPS` cell-steps (all its cells, whatever the workers)."""
+    work = cells * t_end / step
+    if work > MAX_CELL_STEPS:
+        raise InputError(f"t_end: {cells} cells x t_end / step = {work:.3g} cell-steps, more than the "
+                         f"{MAX_CELL_STEPS:.0e} a map may take (hours of CPU); use fewer cells, a shorter "
+                         "t_end or a larger step")
 
 
 def _check_step(system, step, rates):
@@ -764,8 +771,9 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
         ``progress(fraction)``, called as the work advances (only with one worker
         it follows time; with several, it follows finished chunks).
     motions : float, optional
-        Also keep each cell's motion phi(t), sampled every ``motions`` seconds from 0 to
-        ``t_end`` (the map's ``motions``, a :class:`BasinMotions`), from the same integration:
+        Also keep each cell's motion phi(t), sampled from 0 to ``t_end`` about every ``motions``
+        seconds: at the spacing ``t_end / round(t_end / motions)``, which divides ``t_end`` evenly
+        (the map's ``motions``, a :class:`BasinMotions`), from the same integration:
         every cell then runs to ``t_end`` instead of leaving the batch once it has turned 2 pi,
         which changes no outcome.  Default None: no motions.
 
@@ -779,6 +787,7 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
     reading = get_reading(DEFAULT_READING if reading is None else reading).name
     if not (isinstance(workers, (int, np.integer)) and 1 <= workers <= (os.cpu_count() or 1) * 4):
         raise InputError(f"workers: must be an integer from 1 to {(os.cpu_count() or 1) * 4}, got {workers!r}")
+    _check_work(phi0_values.size * dphi0_values.size, t_end, step)     # the whole map, before it is split
     phi_grid, dphi_grid = np.meshgrid(phi0_values, dphi0_values)
     phi_flat, dphi_flat = phi_grid.ravel(), dphi_grid.ravel()
     wall, cpu = time.perf_counter(), time.process_time()

@@ -10,8 +10,11 @@ Integrated along a run::
 The gas force is not a potential force: it acts only while x_C' > 0.  On that
 outward branch it depends on x_C alone, so it has a work function there,
 :func:`gas_outward_work`, and ``W_F`` is a sum of its increments over the outward
-pieces of the motion.  No quadrature of a kinked power is needed, and the balance
-checks a simulation to the tolerance of its integrator.  (For any system, the work
+pieces of the motion.  No quadrature of a kinked power is needed.  Where the slider
+turns back only at the dead centres, where F = 0, the balance checks a simulation to
+the tolerance of its integrator; a turn in mid-stroke, where F is not zero, adds the
+error of its interpolated turning point, which falls with the square of the output
+step (chapter 11).  (For any system, the work
 can instead be integrated with the run: ``simulate(..., work=True)`` and
 :func:`closedloop.balance.energy_balance`.  That check shares the run's
 integration error; this one does not.)
@@ -93,17 +96,26 @@ def gas_work_per_cycle(parameters=None, reading=DEFAULT_READING):
     ----------
     parameters : SliderCrankParameters, optional
         Fix the stroke; default Table 1 (exactly the law's range [1.5, 5.5] m).
+        The crank must turn fully (l1 < l2), or the slider has no such cycle.
     reading : str or Reading, optional
 
     Returns
     -------
     float
         About -260.4 J in the paper's reading: the gas takes energy out.
+
+    Raises
+    ------
+    InputError
+        For parameters with l1 >= l2.
     """
     from scipy.integrate import quad
 
     parameters = instance_of("parameters", SliderCrankParameters() if parameters is None else parameters,
                              SliderCrankParameters)
+    if not parameters.l1 < parameters.l2:
+        raise InputError(f"parameters: a slider cycle from l2 - l1 to l2 + l1 needs a crank that turns fully, "
+                         f"l1 < l2; got l1 = {parameters.l1:g} m, l2 = {parameters.l2:g} m")
     reading = get_reading(reading)
     inner, outer = parameters.l2 - parameters.l1, parameters.l2 + parameters.l1
     low, high = max(inner, GAS_STROKE[0]), min(outer, GAS_STROKE[1])
@@ -200,8 +212,12 @@ def non_conservative_work(system, result):
     by the trapezoidal rule: it is 4000 times smaller than the mean part), and
     ``W_F`` exactly from :func:`gas_outward_work` over the outward pieces of the
     motion (turning points between output times from a cubic Hermite
-    interpolant).  Dense output (``t_eval`` with steps of a few milliseconds)
-    keeps the turning-point error below the integrator's tolerance.
+    interpolant).  A turning point at a dead centre costs nothing (F = 0
+    there); one in mid-stroke, where F is not zero, puts an error of F times the
+    interpolant's error in x_C into ``W_F``, which falls with the square of the
+    output step and may lie far above the integrator's tolerance (swinging
+    cases, chapter 11): take dense outputs (``t_eval``) there, or compare with
+    ``simulate(..., work=True)`` and :func:`closedloop.balance.energy_balance`.
 
     Parameters
     ----------
