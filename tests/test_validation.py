@@ -136,6 +136,10 @@ def test_each_message_names_the_range_and_the_value():
         get_case([1])                                   # unhashable: refused, not a TypeError
     with pytest.raises(InputError, match=r"^q0: need 1 values, got 2$"):
         validation.finite_array("q0", [1.0, 2.0], size=1)
+    with pytest.raises(InputError, match=r"^q0: must be a flat list of numbers, got an array of shape \(1, 1\)$"):
+        validation.finite_array("q0", [[1.0]], size=1)          # said "need 1 values, got 1"
+    with pytest.raises(InputError, match=r"^rtol: must be a flat list of numbers, got an array of shape \(1, 2\)$"):
+        validation.finite_array("rtol", [[1e-6, 1e-6]])         # was returned 2-d, as no docstring said
     assert validation.finite_number("x", 1.0, minimum=0.0, maximum=1.0) == 1.0   # both bounds: closed
     assert get_case(np.int64(2)).phi0 == math.pi / 2
 

@@ -161,6 +161,7 @@ def finite_array(name, value, *, size=None):
     Raises
     ------
     InputError
+        ``"{name}: must be a flat list of numbers, got an array of shape {shape}"``,
         ``"{name}: need {size} values, got {k}"`` or ``"{name}: must be finite, got {values}"``.
     """
     if value is None or isinstance(value, (str, bytes, bool, np.bool_)):
@@ -171,7 +172,9 @@ def finite_array(name, value, *, size=None):
         raise InputError(f"{name}: must be finite, got {shown(value)}") from None
     except (TypeError, ValueError):
         raise InputError(f"{name}: must be finite numbers, got {shown(value)}") from None
-    if size is not None and array.shape != (size,):
+    if array.ndim != 1:
+        raise InputError(f"{name}: must be a flat list of numbers, got an array of shape {array.shape}")
+    if size is not None and array.size != size:
         raise InputError(f"{name}: need {size} values, got {array.size}")
     if not np.all(np.isfinite(array)):
         raise InputError(f"{name}: must be finite, got {shown_array(array)}")

@@ -243,8 +243,6 @@ def _check_output_times(t_eval, t_start, t_end):
     if t_eval is None:
         return None
     t_eval = finite_array("t_eval", t_eval)
-    if t_eval.ndim != 1:
-        raise InputError(f"t_eval: must be a list of times, got an array of shape {t_eval.shape}")
     if t_eval.size == 0:
         raise InputError("t_eval: holds no time; give at least one, or None for the step ends")
     if np.any(np.diff(t_eval) <= 0) or t_eval[0] < t_start or t_eval[-1] > t_end:

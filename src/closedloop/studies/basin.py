@@ -299,7 +299,7 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
     _check_step(system, step, dphi0)
     if sample_times is not None:
         sample_times = finite_array("sample_times", sample_times)
-        if sample_times.ndim != 1 or np.any(sample_times < 0) or np.any(sample_times > t_end):
+        if np.any(sample_times < 0) or np.any(sample_times > t_end):
             raise InputError(f"sample_times: need a list of times within 0 .. t_end = {t_end:g} s")
         finish_early = False                         # every cell's motion is kept to t_end
     _check_work(phi0.size, t_end, step)
@@ -728,9 +728,9 @@ def _check_grid(phi0_values, dphi0_values):
     arrays = []
     for name, values, limit, unit in (("phi0", phi0_values, ANGLE_LIMIT, "rad"),
                                       ("dphi0", dphi0_values, SPEED_LIMIT, "rad/s")):
-        if np.ndim(values) > 1 or np.size(values) == 0:
-            raise InputError(f"{name}: need a non-empty list of values")
         values = finite_array(name, values)
+        if values.size == 0:
+            raise InputError(f"{name}: need a non-empty list of values")
         if values.size > 1 and np.any(np.diff(values) <= 0):
             raise InputError(f"{name}: values must increase strictly")
         if np.max(np.abs(values)) > limit:
