@@ -113,6 +113,25 @@ def test_a_baseline_run_that_never_ends_is_stopped_by_its_evaluation_cap():
         baseline.simulate(state, 1.0, max_nfev=0)
 
 
+def test_the_baseline_refuses_bad_outputs_and_states_before_integrating():
+    """Its docstring promised an InputError for a parameter outside its range; t_eval beyond t_end gave
+    scipy's ValueError, and a tuple for the state an AttributeError."""
+    from closedloop.errors import InputError
+    from closedloop.slider_crank import get_case, initial_state, slider_crank_system
+    from closedloop.studies.baseline import LagrangesBaseline
+
+    case = get_case(2)
+    state = initial_state(slider_crank_system(), case.phi0, case.dphi0)
+    baseline = LagrangesBaseline()
+    for t_eval in ([30.0], [0.5, 0.5], []):
+        with pytest.raises(InputError, match=r"^t_eval: must increase strictly within \[0, 1\] s$"):
+            baseline.simulate(state, 1.0, t_eval=t_eval)
+    with pytest.raises(InputError, match=r"^initial_state: expected a InitialState, got tuple$"):
+        baseline.simulate((state.s, state.sd), 1.0)
+    run = baseline.simulate(state, 1.0, method="RK45", rtol=1e-6, atol=1e-6, t_eval=[0.25, 1.0])
+    assert run.t.tolist() == [0.25, 1.0]
+
+
 def fake(case, key, cpu, error):
     return {"case": case, "formulation": key, "label": key, "method": "RK45", "rtol": 1e-6, "status": "ok",
             "cpu_s": cpu, "error_t10": error}

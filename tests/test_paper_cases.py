@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from closedloop import Minimal, simulate
+from closedloop import InputError, Minimal, simulate
 from closedloop.slider_crank import CASES, MOTIONS, classify_motion, initial_state, motion_codes
 from closedloop.studies.basin import basin_map, grid_values, integrate_outcomes, reference_outcome
 from closedloop.studies.readings import reading_outcomes
@@ -54,6 +54,13 @@ def test_the_four_cases_move_as_the_paper_found(slider_crank, table, batch, whol
     assert reference_outcome(slider_crank, case.phi0, case.dphi0) == code
     assert table["decimal-opposing", number].motion == case.finding
     assert table["decimal-opposing", number].runaway_at is None
+
+
+def test_classify_motion_refuses_a_start_angle_that_is_not_a_number(slider_crank):
+    state = initial_state(slider_crank, CASES[2].phi0, CASES[2].dphi0)
+    result = simulate(slider_crank, state, 0.2, method="DOP853", rtol=1e-8, atol=1e-8)
+    with pytest.raises(InputError, match=r"^phi0: must be a finite number"):
+        classify_motion(result, "x")                   # was a TypeError from numpy
 
 
 def test_motion_codes_is_the_rule_of_classify_motion():

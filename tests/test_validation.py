@@ -72,6 +72,8 @@ def test_baumgarte_gains_must_not_be_negative(kind, gain):
 def test_unknown_names_are_refused_with_the_choices(slider_crank, state):
     with pytest.raises(InputError, match=r"^case: unknown 5; choose one of 1, 2, 3, 4"):
         get_case(5)
+    with pytest.raises(InputError, match=r"^case: unknown True; choose one of 1, 2, 3, 4"):
+        get_case(True)                                  # True == 1: it was case 1
     with pytest.raises(InputError, match=r"^formulation: unknown 'lagrange'; choose one of augmented"):
         formulation_from_name("lagrange")
     with pytest.raises(InputError, match=r"^method: unknown 'Euler'; choose one of .*LSODA"):
@@ -159,3 +161,16 @@ def test_the_energy_bookkeeping_refuses_another_system(slider_crank):
     with pytest.raises(InputError, match=r"^system: expected a SliderCrankSystem, got System$"):
         crank_landscape(plain, [0.0, 1.0])
     assert crank_landscape(slider_crank, [0.0, 1.0]).slope[0] == pytest.approx(0.0, abs=1e-14)  # x_C' = 0 at phi = 0
+
+
+def test_an_initial_state_at_a_dead_position_is_refused_with_a_remedy_for_starting():
+    """There q' does not fix z'; the message used to be simulate's ("use the NullSpace formulation"),
+    which does not build a state."""
+    from closedloop import SingularConfigurationError
+    from closedloop.slider_crank import slider_crank_system
+
+    rocking = slider_crank_system(SliderCrankParameters(l1=3.5, l2=2.0, full_rotation=False))
+    dead = math.asin(2.0 / 3.5)
+    with pytest.raises(SingularConfigurationError, match=r"^q0: Phi_z is singular at q0 = \[0\.608.*start away"):
+        initial_state(rocking, dead, 1.0)
+    assert initial_state(rocking, dead - 0.01, 1.0).sd[0] == 1.0         # just beside it, a state

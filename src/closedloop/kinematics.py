@@ -249,9 +249,22 @@ def consistent_initial_state(system, q0, qd0, z_guess):
     Returns
     -------
     InitialState
+
+    Raises
+    ------
+    SingularConfigurationError
+        Where Phi_z is singular on Newton's way from the guess, or at the solution (a dead
+        position of q, where q' does not fix z').
     """
     q0 = finite_array("q0", q0, size=system.f)
     qd0 = finite_array("qd0", qd0, size=system.f)
     z_guess = finite_array("z_guess", z_guess, size=system.r)
-    s = solve_dependent(system, q0, z_guess)
-    return InitialState(s, dependent_velocities(system, s, qd0))
+    s = solve_dependent(system, q0, z_guess)       # its own error names a singular guess
+    try:
+        return InitialState(s, dependent_velocities(system, s, qd0))
+    except SingularConfigurationError:
+        raise SingularConfigurationError(
+            f"q0: Phi_z is singular at q0 = {q0.tolist()} (a dead position of the independent coordinates), so "
+            "q'(0) does not fix z'(0) through (9); start away from it, or give InitialState(s0, s0') with "
+            "Phi_s s0' = 0 yourself (any formulation that needs no partition, NullSpace, can run from it)"
+        ) from None

@@ -364,6 +364,8 @@ CASES = {
 
 def get_case(number):
     """The :class:`Case` numbered ``number`` (1-4), or a clear error."""
+    if isinstance(number, (bool, np.bool_)):        # True == 1: it would pass for case 1
+        raise InputError(f"case: unknown {number!r}; choose one of {', '.join(map(str, CASES))}")
     return CASES[one_of("case", number, CASES)]
 
 
@@ -442,6 +444,8 @@ def classify_motion(result, phi0=None) -> str:
         integrated with rtol above :data:`CLASSIFY_RTOL_LIMIT`.
     """
     instance_of("result", result, SimulationResult)
+    if phi0 is not None:
+        phi0 = finite_number("phi0", phi0, unit="rad")
     warnings = result.warnings
     if warnings:
         raise InputError(f"result: not classified, {warnings[0]}")
