@@ -24,6 +24,8 @@ from closedloop.cli import main
 from closedloop.fixed_step import rk4
 from closedloop.four_bar import four_bar_model
 from closedloop.methods import SOLVER_METHODS
+from closedloop.simulation.run import Run
+from closedloop.simulation.switching import MAX_STALLS
 from closedloop.slider_crank import (GasForce, SliderCrankParameters, SliderCrankSystem, classify_motion,
                                      gas_force, get_case, get_reading, initial_state, slider_crank_system)
 from closedloop.studies.basin import integrate_outcomes, reference_outcome
@@ -211,9 +213,22 @@ def test_chattering_on_a_switch(slider_crank, follow):
     """Projected at rtol 1e-2 and 300 rad/s stalls on x_C = 5; looser tolerances stall as well."""
     settings = dict(formulation=Projected(), method="DOP853", rtol=1e-2, atol=1e-2)
     state = initial_state(slider_crank, *FAST)
-    with pytest.raises(IntegrationError) as error:
+    decisions = []
+    original = Run.decide
+
+    def counted(self, t, *args):
+        decisions.append(t)
+        return original(self, t, *args)
+
+    with pytest.MonkeyPatch.context() as patch, pytest.raises(IntegrationError) as error:
+        patch.setattr(Run, "decide", counted)
         simulate(slider_crank, state, 0.25, **settings)
     assert "chatters on switch 'x_C = 5'" in str(error.value)
+    assert f"more than {MAX_STALLS} stops in a row" in str(error.value)
+    # the decisions at the time it chatters: its first arrival there, then one after each of MAX_STALLS
+    # stops without progress; the next stop raised
+    stalled = [t for t in decisions if abs(t - decisions[-1]) <= 1e-9]
+    assert len(stalled) == MAX_STALLS + 1
     assert str(error.value).endswith("; tighten rtol and atol, or regularise the force")
     if follow == "tighten rtol and atol":
         result = passes(simulate(slider_crank, state, 0.25, **{**settings, "rtol": 1e-6, "atol": 1e-6}), 0.25)

@@ -71,6 +71,16 @@ def _stop_time(error):
     return float(re.search(r"at t = ([0-9.e+-]+) s", str(error)).group(1))
 
 
+def test_a_start_beside_a_change_point_is_stopped_at_once(parallelogram):
+    """1e-9 rad past theta1 = pi, moving away: sigma_min(Phi_s) is smallest at the path's first point,
+    which the check counts as a minimum (an interior one would have been missed: the run went on)."""
+    theta = np.pi + 1e-9
+    state = consistent_initial_state(parallelogram, [theta], [2.0], [0.0, theta])
+    with pytest.raises(SingularConfigurationError, match="reaches a change point") as error:
+        simulate(parallelogram, state, 1.0, formulation=Augmented(), method="DOP853", rtol=1e-10, atol=1e-10)
+    assert _stop_time(error.value) < 1e-9
+
+
 #: Three parallelograms: the 3 x 1 one started OVER_THE_TOP (the crank reaches theta1 = pi at about
 #: 0.517 s), and two that nobody here designed the guard for, the 2 x 1 one and the square one (all
 #: links 1 m, where the crank can also fold onto the ground link), started with the crank vertical

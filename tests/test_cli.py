@@ -46,6 +46,24 @@ def test_free_initial_condition_and_options(capsys):
     assert (out["formulation"], out["alpha"], out["method"], out["t_end"]) == ("orthogonal", 10.0, "LSODA", 5.0)
 
 
+def test_the_sticking_time_is_the_start_of_the_run_s_first_sticking_interval(capsys):
+    """Case 3 sticks at about 28.4 s and stays stuck to the end: stuck_at is the interval's start, the same
+    run simulated here with the command's defaults (closed form, alpha = beta = 5, ode.dop853, 1e-9)."""
+    from closedloop import ClosedForm, simulate
+    from closedloop.slider_crank import get_case, initial_state, slider_crank_system
+
+    assert main(["simulate", "--case", "3", "--t-end", "30", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    system, case = slider_crank_system(), get_case(3)
+    result = simulate(system, initial_state(system, case.phi0, case.dphi0), 30.0, formulation=ClosedForm(5, 5),
+                      method="ode.dop853", rtol=1e-9, atol=1e-9)
+    start, end = result.sticking_intervals[0]
+    assert end == 30.0 and 20.0 < start < 30.0
+    assert data["stuck_at"] == start
+    assert main(["simulate", "--case", "3", "--t-end", "30"]) == 0
+    assert f"(the slider sticks at t = {start:.2f} s)" in capsys.readouterr().out
+
+
 def test_summary_is_readable(capsys):
     assert main(["simulate", "--case", "1", "--t-end", "5"]) == 0
     text = capsys.readouterr().out

@@ -23,6 +23,9 @@ def setup():
     ({"t_eval": []}, r"^t_eval: holds no time"),
     ({"t_eval": [0.0, np.nan, 0.5]}, r"^t_eval: must be finite"),
     ({"t_eval": "0 0.5"}, r"^t_eval: must be finite numbers, got '0 0.5'$"),
+    ({"t_eval": [0.0, 0.5, 0.5, 1.0]}, r"^t_eval: must increase strictly within \[0, 1\]$"),   # a repeat
+    ({"t_eval": [0.0, 1.5]}, r"^t_eval: must increase strictly within \[0, 1\]$"),
+    ({"t_eval": [[0.0, 0.5]]}, r"^t_eval: must be a flat list of numbers, got an array of shape \(1, 2\)$"),
     ({"t_start": "0"}, r"^t_start: must be a finite number \[s\], got '0'$"),
     ({"max_steps": np.float64(5.0)}, r"^max_steps: must be an integer >= 1, got 5.0$"),
     ({"max_nfev": 0}, r"^max_nfev: must be an integer >= 1, got 0$"),

@@ -157,6 +157,9 @@ def test_a_stuck_slider_is_released_where_the_holding_force_reaches_its_limit():
     assert min(abs(a) for a in x_acc) < 1e-6 * max(abs(a) for a in before)
     moving = result.t > end + 0.01
     assert np.max(np.abs(result.sd[2, moving])) > 0.01           # it does move again
+    # the released state leaves on the branch its free motion rises onto: no event at the release
+    # time but the release (the other branch stopped at once, with a zero-length "crossed" event)
+    assert [e.action for e in result.switch_events if e.t == released[0].t] == ["released"]
     assert result.max_constraint_error < 1e-5
 
 

@@ -126,6 +126,9 @@ def test_bool_text_and_none_are_refused_with_the_parameter_named(value, shown):
 def test_each_message_names_the_range_and_the_value():
     with pytest.raises(InputError, match=r"^g: must be a finite number >= 0 m/s\^2, got -9\.81$"):
         SliderCrankParameters(g=-9.81)
+    with pytest.raises(InputError, match=r"^a2: must lie on the rod, 0 <= a2 <= l2 = 3\.5 m, got 4 m$"):
+        SliderCrankParameters(a2=4.0)                   # beyond the rod's end, within twice its length
+    assert SliderCrankParameters(a2=3.5).a2 == 3.5      # at its end: allowed
     with pytest.raises(InputError, match=r"^step: must be a finite number > 0 s, got nan$"):
         validation.positive_number("step", np.float64("nan"), unit="s")
     with pytest.raises(InputError, match=r"^workers: must be an integer from 1 to 8, got 9$"):

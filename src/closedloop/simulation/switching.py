@@ -215,8 +215,8 @@ def refuse_sliding(t, name):
 def chattering_error(t, name, advice):
     """The error for a state that stalls on a switch more than MAX_STALLS times in a row."""
     return IntegrationError(
-        f"the state chatters on switch {name!r} at t = {float(np.min(t)):.6g} s: {MAX_STALLS} stops without "
-        f"progress; {advice}"
+        f"the state chatters on switch {name!r} at t = {float(np.min(t)):.6g} s: more than {MAX_STALLS} stops in "
+        f"a row without progress; {advice}"
     )
 
 
