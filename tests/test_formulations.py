@@ -148,3 +148,22 @@ def test_the_minimal_unpacker_is_an_object_with_seed_and_with_R(slider_crank):
     assert R[0, 0] == 1.0 and R[2, 0] == pytest.approx(state.sd[2] / state.sd[0], rel=1e-13)   # x_C' = R_x phi'
     moved, _ = unpack(y + np.array([0.01, 0.0]), 0.01)  # Newton follows q from the prediction
     assert moved[0] == 1.01 and 2.0 * math.sin(1.01) == pytest.approx(3.5 * math.sin(moved[1]), abs=1e-14)
+
+
+@pytest.mark.parametrize("alpha, beta", [(7.0, 3.0), (0.0, 0.0)])
+def test_baumgarte_accelerations_satisfy_the_stabilised_constraint_equation(alpha, beta):
+    """(16)-(17) at a state off the constraints (f != 0, f' != 0): Phi s'' + Phi_s' s' = -2 alpha f' - beta^2 f,
+    with f' = Phi s', and M s'' + Phi^T lambda = p1; alpha = beta = 0 gives (12), the augmented system."""
+    from closedloop.slider_crank import slider_crank_system
+
+    system = slider_crank_system(gas=False)
+    state = initial_state(system, 1.0, 2.0)
+    s, sd = state.s + [0.0, 1e-3, -2e-3], state.sd + [0.0, 0.01, 0.02]
+    sdd = Baumgarte(alpha, beta).accelerations(system, 0.3, s, sd)
+    M, p1, f, Phi, gamma = system.dynamics(0.3, s, sd)
+    assert np.linalg.norm(f) > 1e-4 and np.linalg.norm(Phi @ sd) > 1e-3
+    assert np.allclose(Phi @ sdd + gamma, -2.0 * alpha * (Phi @ sd) - beta**2 * f, rtol=0, atol=1e-10)
+    multipliers = np.linalg.lstsq(Phi.T, p1 - M @ sdd, rcond=None)[0]      # M s'' - p1 in the range of Phi^T
+    assert np.allclose(M @ sdd + Phi.T @ multipliers, p1, rtol=0, atol=1e-9)
+    if alpha == beta == 0.0:
+        assert np.allclose(sdd, Augmented().accelerations(system, 0.3, s, sd), rtol=0, atol=1e-12)
