@@ -194,3 +194,28 @@ def test_null_space_passes_the_dead_positions_of_a_rocking_four_bar_crank():
     assert np.max(np.abs(energy - energy[0])) < 1e-7 * abs(energy[0])
     with pytest.raises(SingularConfigurationError, match="use the NullSpace formulation"):
         simulate(rocking, start, 3.0, formulation=Minimal(), method="DOP853", rtol=1e-10, atol=1e-10)
+
+
+def test_a_one_by_one_phi_z_is_measured_against_phi_s():
+    """r = 1: cond of a 1 x 1 matrix is 1 unless it is 0, so R of (20) was formed at any tiny Phi_z (a
+    Cartesian pendulum at y = 1e-17 gave accelerations off by 6). Now |Phi_s| / |Phi_z| is the measure."""
+    from closedloop.linalg import orthogonal_complement
+
+    with pytest.raises(SingularConfigurationError, match=r"\|Phi_s\| / \|Phi_z\| = 1e\+17 > 1e\+10"):
+        orthogonal_complement(np.array([[2.0, 2e-17]]), [0], [1])
+    assert orthogonal_complement(np.array([[2.0, 1.0]]), [0], [1]).ravel().tolist() == [1.0, -2.0]
+
+
+def test_a_phi_z_that_is_not_finite_is_refused_as_singular_not_by_numpy():
+    from closedloop.linalg import orthogonal_complement
+
+    with pytest.raises(SingularConfigurationError, match=r"cond\(Phi_z\) = nan"):
+        orthogonal_complement(np.array([[np.nan, 1.0, 0.5], [0.2, np.nan, 1.0]]), [0], [1, 2])
+
+
+def test_null_space_basis_refuses_an_unknown_basis():
+    from closedloop import InputError
+    from closedloop.linalg import null_space_basis
+
+    with pytest.raises(InputError, match=r"^basis: unknown 'bogus'; choose one of svd, pivoted$"):
+        null_space_basis(np.array([[1.0, 2.0, 3.0]]), basis="bogus")          # it gave the pivoted basis

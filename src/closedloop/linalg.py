@@ -13,6 +13,7 @@ import numpy as np
 
 from .errors import SingularConfigurationError, at_time
 from .loading import first_use
+from .validation import one_of
 
 __all__ = ["solve_augmented", "solve_small", "solve_dense", "solve_many", "condition_number", "orthogonal_complement",
            "orthogonal_complement_many", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
@@ -134,13 +135,19 @@ def orthogonal_complement(Phi, q_index, z_index, t=None):
     """R of (20) from Phi_s, in the order of s; see :meth:`System.orthogonal_complement`.
 
     Raises :class:`~closedloop.errors.SingularConfigurationError` when
-    cond(Phi_z) exceeds :data:`CONDITION_LIMIT`.
+    cond(Phi_z) exceeds :data:`CONDITION_LIMIT` (or Phi_z is not finite).  A 1 x 1
+    Phi_z (r = 1) has condition 1 unless it is 0, so there |Phi_s| / |Phi_z| takes
+    its place: how small Phi_z is against the constraint's own gradient.
     """
     Phi_q, Phi_z = Phi[:, q_index], Phi[:, z_index]
-    condition = condition_number(Phi_z)
-    if condition > CONDITION_LIMIT:
+    if Phi_z.shape == (1, 1):
+        measure = "|Phi_s| / |Phi_z|"
+        condition = math.inf if Phi_z[0, 0] == 0.0 else float(np.linalg.norm(Phi)) / abs(float(Phi_z[0, 0]))
+    else:
+        measure, condition = "cond(Phi_z)", condition_number(Phi_z)
+    if not condition <= CONDITION_LIMIT:   # NaN entries too: refused here, not by the solve
         raise SingularConfigurationError(
-            f"Phi_z is singular{at_time(t)}: cond(Phi_z) = {condition:.3g} > {CONDITION_LIMIT:.0e}, so R of "
+            f"Phi_z is singular{at_time(t)}: {measure} = {condition:.3g} > {CONDITION_LIMIT:.0e}, so R of "
             "(20) does not exist at this configuration (a dead position of the independent coordinates); "
             "use the NullSpace formulation, which needs no partition"
         )
@@ -232,6 +239,7 @@ def null_space_basis(Phi, basis="svd", t=None):
         the constraints are dependent, assembly branches meet there, and no
         choice of coordinates passes such a bifurcation.
     """
+    one_of("basis", basis, NULL_SPACE_BASES)
     r, n = Phi.shape
     _, singular_values, Vt = np.linalg.svd(Phi)
     if singular_values[-1] < RANK_LIMIT * singular_values[0]:

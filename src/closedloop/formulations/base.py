@@ -47,7 +47,9 @@ class Formulation:
     1. ``name`` is a class attribute, the formulation's one spelling: the
        registry of :mod:`closedloop.formulations`, the command line and
        ``SimulationResult.formulation`` use it, and
-       ``formulation_from_name(result.formulation)`` gives the formulation back.
+       ``formulation_from_name(result.formulation)`` gives back its kind, with
+       default parameters (the result keeps its gains in ``SimulationResult``'s
+       own fields only where they are recorded; a NullSpace basis is not).
     2. ``pack(system, s, sd) -> y`` builds the integrator's state vector from
        consistent coordinates and velocities; ``state_names(system)`` names the
        entries of ``y`` (for error messages).

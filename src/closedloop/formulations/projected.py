@@ -64,7 +64,12 @@ def _minimum_norm(Phi, residual, t, s):
 
 
 def project_state(system, s, sd, t=None, tolerance=NEWTON_TOLERANCE, max_iterations=NEWTON_MAX_ITERATIONS):
-    """The state nearest to ``(s, s')`` that satisfies f = 0 (6) and f' = 0 (9).
+    """A state near ``(s, s')`` that satisfies f = 0 (6) and f' = 0 (9).
+
+    Near, not the nearest: each Newton step is the minimum-norm correction of
+    the linearised f, so the sum of the steps is close to, but not exactly, the
+    orthogonal projection onto f = 0 (they differ at second order in the
+    distance).  The velocities are the exact orthogonal projection.
 
     Positions: Newton's method on f(s) = 0 with the minimum-norm correction
     ``Delta s = -Phi_s^T (Phi_s Phi_s^T)^{-1} f(s)`` at every iteration (the
@@ -110,7 +115,8 @@ def project_state(system, s, sd, t=None, tolerance=NEWTON_TOLERANCE, max_iterati
     if residual <= 1e3 * np.finfo(float).eps * (1.0 + np.max(np.abs(s))):     # close, but not to `tolerance`
         raise ConvergenceError(
             f"the projection onto f = 0 stalled at |f| = {residual:.3g}{at_time(t)}, as close as floating "
-            f"point gets here, above the tolerance {tolerance:.3g} (1 + max |s|); give a tolerance >= 1e-13")
+            f"point gets here, above the tolerance {tolerance:.3g} (1 + max |s|); call project_state with a "
+            f"larger tolerance, e.g. {10 * residual / (1.0 + np.max(np.abs(s))):.0e}")
     raise ConvergenceError(
         f"the projection onto f = 0 did not converge in {max_iterations} Newton iterations{at_time(t)} "
         f"(|f| = {residual:.3g}): the integrator left the constraint manifold too far; "
