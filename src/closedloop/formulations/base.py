@@ -48,8 +48,8 @@ class Formulation:
        registry of :mod:`closedloop.formulations`, the command line and
        ``SimulationResult.formulation`` use it, and
        ``formulation_from_name(result.formulation)`` gives back its kind, with
-       default parameters (the result keeps its gains in ``SimulationResult``'s
-       own fields only where they are recorded; a NullSpace basis is not).
+       default parameters: the result records the name only, not the gains or
+       a NullSpace basis.
     2. ``pack(system, s, sd) -> y`` builds the integrator's state vector from
        consistent coordinates and velocities; ``state_names(system)`` names the
        entries of ``y`` (for error messages).
