@@ -130,7 +130,7 @@ def test_null_space_formulation_passes_the_dead_positions(rocking, through_dead_
 def test_minimal_coordinates_fail_with_a_clear_error_at_the_first_dead_position(rocking, through_dead_positions):
     state, remedy, _ = through_dead_positions
     first = remedy.partition_singularities[0]
-    with pytest.raises(SingularConfigurationError, match=r"at t = ([0-9.]+) s.*cond\(Phi_z\).*NullSpace") as error:
+    with pytest.raises(SingularConfigurationError, match=r"at t = ([0-9.]+) s.*\|Phi_s\| \|Phi_z\^-1\|.*NullSpace") as error:
         simulate(rocking, state, 8.0, formulation=Minimal(), method="DOP853", rtol=1e-10, atol=1e-10)
     failed_at = float(error.value.args[0].split("at t = ")[1].split(" s")[0])
     assert abs(failed_at - first) < 1e-3
@@ -142,7 +142,7 @@ def test_plain_r_refuses_a_dead_position_that_the_remedy_starts_from(rocking):
     phi = math.pi - math.asin(l2 / l1)
     omega = 1.0                                   # the rod turns; the crank is momentarily at rest
     state = InitialState([phi, math.pi / 2, l1 * math.cos(phi)], [0.0, omega, l2 * omega])
-    with pytest.raises(SingularConfigurationError, match=r"at t = 0 s: cond\(Phi_z\) = .* > 1e\+10.*NullSpace"):
+    with pytest.raises(SingularConfigurationError, match=r"at t = 0 s: \|Phi_s\| \|Phi_z\^-1\| = .* > 1e\+10.*NullSpace"):
         simulate(rocking, state, 1.0, formulation=Orthogonal(), method="DOP853")
     result = simulate(rocking, state, 1.0, formulation=NullSpace(basis="pivoted"), method="DOP853",
                       rtol=1e-10, atol=1e-10)
@@ -196,20 +196,29 @@ def test_null_space_passes_the_dead_positions_of_a_rocking_four_bar_crank():
         simulate(rocking, start, 3.0, formulation=Minimal(), method="DOP853", rtol=1e-10, atol=1e-10)
 
 
-def test_a_one_by_one_phi_z_is_measured_against_phi_s():
-    """r = 1: cond of a 1 x 1 matrix is 1 unless it is 0, so R of (20) was formed at any tiny Phi_z (a
-    Cartesian pendulum at y = 1e-17 gave accelerations off by 6). Now |Phi_s| / |Phi_z| is the measure."""
-    from closedloop.linalg import orthogonal_complement
+def test_phi_z_is_measured_against_phi_s():
+    """cond(Phi_z) misses a Phi_z small as a whole: a 1 x 1 one has condition 1 unless it is 0 (a Cartesian
+    pendulum at y = 1e-17 gave accelerations off by 6), and so has 1e-17 I. |Phi_s| |Phi_z^-1| catches both,
+    and equals the 2-norms' ratio computed by numpy."""
+    from closedloop.linalg import orthogonal_complement, partition_condition
 
-    with pytest.raises(SingularConfigurationError, match=r"\|Phi_s\| / \|Phi_z\| = 1e\+17 > 1e\+10"):
+    with pytest.raises(SingularConfigurationError, match=r"\|Phi_s\| \|Phi_z\^-1\| = 1e\+17 > 1e\+10"):
         orthogonal_complement(np.array([[2.0, 2e-17]]), [0], [1])
+    with pytest.raises(SingularConfigurationError, match=r"\|Phi_s\| \|Phi_z\^-1\| = 1\.41e\+17 > 1e\+10"):
+        orthogonal_complement(np.array([[1.0, 1e-17, 0.0], [1.0, 0.0, 1e-17]]), [0], [1, 2])
     assert orthogonal_complement(np.array([[2.0, 1.0]]), [0], [1]).ravel().tolist() == [1.0, -2.0]
+    rng = np.random.default_rng(7)
+    for r, n in ((1, 2), (2, 3), (2, 4), (3, 5)):
+        Phi = rng.normal(size=(r, n))
+        z = list(range(n - r, n))
+        exact = np.linalg.norm(Phi, 2) / np.linalg.svd(Phi[:, z], compute_uv=False)[-1]
+        assert partition_condition(Phi, z) == pytest.approx(exact, rel=1e-12)
 
 
 def test_a_phi_z_that_is_not_finite_is_refused_as_singular_not_by_numpy():
     from closedloop.linalg import orthogonal_complement
 
-    with pytest.raises(SingularConfigurationError, match=r"cond\(Phi_z\) = nan"):
+    with pytest.raises(SingularConfigurationError, match=r"\|Phi_s\| \|Phi_z\^-1\| = inf"):
         orthogonal_complement(np.array([[np.nan, 1.0, 0.5], [0.2, np.nan, 1.0]]), [0], [1, 2])
 
 

@@ -34,8 +34,6 @@ __all__ = [
     "MIN_START_ERROR",
 ]
 
-#: The name :func:`rk4` gives itself when it asks a formulation whether it can run (``check_method``).
-RK4_METHOD = "rk4"
 #: The smallest |f(s0)| [m] that :func:`rk4_stability_map` starts from: far above the round-off of |f|
 #: (about 1e-15 m here), so that the growth it returns is that of the error equation (15).
 MIN_START_ERROR = 1e-9
@@ -165,7 +163,7 @@ def rk4(system, formulation, s0, sd0, step, n_steps, t_start=0.0, divergence=1e6
         raise InputError("system: rk4 does not stop at switches; use a system without switched forces "
                          "(e.g. slider_crank_system(gas=False)) or simulate()")
     try:
-        formulation.check_method(RK4_METHOD)
+        formulation.check_method("rk4")
     except InputError as error:
         raise InputError(f"formulation: {type(formulation).__name__} cannot run this fixed-step scheme ({error}); "
                          "use simulate()") from None
@@ -259,7 +257,8 @@ def rk4_stability_map(system, s0, sd0, step, alpha_steps, beta_steps, n_steps=10
     """
     alpha_steps = np.asarray(alpha_steps, dtype=float)
     beta_steps = np.asarray(beta_steps, dtype=float)
-    start_error = float(np.linalg.norm(system.constraints(np.asarray(s0, dtype=float))))
+    s0, sd0 = np.asarray(s0, dtype=float), np.asarray(sd0, dtype=float)
+    start_error = float(np.linalg.norm(system.constraints(s0)))
     if not start_error >= MIN_START_ERROR:
         raise InputError(
             f"s0: must lie off the constraints by |f(s0)| >= {MIN_START_ERROR:g} m, got {start_error:.3g}: the map "
@@ -268,8 +267,8 @@ def rk4_stability_map(system, s0, sd0, step, alpha_steps, beta_steps, n_steps=10
         positive_number("step", step, unit="s")
         positive_integer("n_steps", n_steps)
         try:
-            return _stability_map_at_once(system, np.asarray(s0, dtype=float), np.asarray(sd0, dtype=float),
-                                          step, alpha_steps, beta_steps, n_steps, 1e3 * max(growth_limit, 1.0))
+            return _stability_map_at_once(system, s0, sd0, start_error, step, alpha_steps, beta_steps, n_steps,
+                                          1e3 * max(growth_limit, 1.0))
         except np.linalg.LinAlgError:
             pass                           # a singular matrix in some cell: the cell's own run names it
     growth = np.empty((beta_steps.size, alpha_steps.size))
@@ -281,7 +280,7 @@ def rk4_stability_map(system, s0, sd0, step, alpha_steps, beta_steps, n_steps=10
     return growth
 
 
-def _stability_map_at_once(system, s0, sd0, step, alpha_steps, beta_steps, n_steps, divergence):
+def _stability_map_at_once(system, s0, sd0, start_error, step, alpha_steps, beta_steps, n_steps, divergence):
     """:func:`rk4_stability_map` with the cells as the columns of one batch (a system without ``force``).
 
     The same scheme, gains and stopping rule as :func:`rk4` run cell by cell
@@ -295,8 +294,7 @@ def _stability_map_at_once(system, s0, sd0, step, alpha_steps, beta_steps, n_ste
     alpha = np.repeat((alpha_steps / step)[None, :], beta_steps.size, axis=0).ravel()
     beta = np.repeat((beta_steps / step)[:, None], alpha_steps.size, axis=1).ravel()
     size = alpha.size
-    start_error = np.linalg.norm(system.constraints(s0))
-    limit = divergence * max(start_error, 1e-12)
+    limit = divergence * start_error               # |f(s0)| >= MIN_START_ERROR: checked by the caller
     error = np.full(size, start_error)
     active = np.ones(size, dtype=bool)
     y = np.repeat(np.concatenate((s0, sd0))[:, None], size, axis=1)

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from .errors import ConvergenceError, SingularConfigurationError, at_time
+from .errors import ConvergenceError, InputError, SingularConfigurationError, at_time
 from .linalg import orthogonal_complement, solve_many, solve_small
 from .validation import finite_array
 
@@ -232,6 +232,24 @@ class InitialState:
 
     def __repr__(self):
         return f"InitialState(s={self.s!r}, sd={self.sd!r})"
+
+
+def initial_state_arrays(initial_state, n):
+    """``(s0, s0')`` of an :class:`InitialState` of ``n`` finite coordinates and velocities, or a clear error.
+
+    Raises
+    ------
+    InputError
+        Naming ``initial_state``: not an InitialState, another size, or not finite.
+    """
+    if not isinstance(initial_state, InitialState):
+        raise InputError("initial_state: expected an InitialState (see consistent_initial_state)")
+    s0, sd0 = initial_state.s, initial_state.sd
+    if s0.shape != (n,) or sd0.shape != (n,):
+        raise InputError(f"initial_state: need {n} coordinates and {n} velocities")
+    if not (np.isfinite(s0).all() and np.isfinite(sd0).all()):
+        raise InputError("initial_state: coordinates and velocities must be finite")
+    return s0, sd0
 
 
 def consistent_initial_state(system, q0, qd0, z_guess):

@@ -16,7 +16,7 @@ from .loading import first_use
 from .validation import one_of
 
 __all__ = ["solve_augmented", "solve_small", "solve_dense", "solve_many", "condition_number", "orthogonal_complement",
-           "orthogonal_complement_many", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
+           "orthogonal_complement_many", "partition_condition", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
            "NULL_SPACE_BASES"]
 
 
@@ -104,8 +104,9 @@ def solve_small(A, b):
     return solve_dense(A, b)
 
 
-#: cond(Phi_z) above which R of (20) is refused: its entries then keep fewer than
-#: about 16 - log10(1e10) = 6 significant digits, fewer than any tolerance in this book.
+#: |Phi_s| |Phi_z^-1| (:func:`partition_condition`) above which R of (20) is refused: a state is then
+#: within 1e-10 of a dead position, relative to the constraints' own scale, and what R gives there keeps
+#: fewer than about 16 - log10(1e10) = 6 significant digits, fewer than any tolerance in this book.
 CONDITION_LIMIT = 1e10
 
 
@@ -131,23 +132,53 @@ def condition_number(A):
     return math.inf if singular_values[-1] == 0.0 else float(singular_values[0] / singular_values[-1])
 
 
+def partition_condition(Phi, z_index):
+    """``|Phi_s| |Phi_z^-1|`` in the 2-norm: how near Phi_z is to singular, against the whole Phi_s.
+
+    cond(Phi_z) = |Phi_z| |Phi_z^-1| alone misses a Phi_z that is small as a whole: a 1 x 1
+    Phi_z has condition 1 unless it is exactly 0, and so has ``1e-17 I``; there R of (20) is
+    huge and the state lies within rounding of a dead position.  Measured against Phi_s this is
+    at least cond(Phi_z), and the two agree where Phi_z carries Phi_s's scale (for the
+    slider-crank they differ by less than a factor 2).  ``inf`` where Phi_z is singular or any
+    entry is not finite.  Closed forms for r <= 2 (cheap enough for every right-hand side),
+    singular values otherwise.
+    """
+    Phi = np.asarray(Phi, dtype=float)
+    Phi_z = Phi[:, z_index]
+    r = Phi_z.shape[0]
+    if r == 1:
+        smallest = abs(float(Phi_z[0, 0]))
+        largest = math.sqrt(sum(v * v for v in Phi[0].tolist()))
+    elif r == 2:                           # sigma_1^2 + sigma_2^2 = |A|_F^2, sigma_1 sigma_2 = |det A|
+        (a, c), (d, e) = Phi_z.tolist()
+        det = abs(a * e - c * d)
+        frobenius2 = a * a + c * c + d * d + e * e
+        top = 0.5 * (frobenius2 + math.sqrt(max(frobenius2 * frobenius2 - 4.0 * det * det, 0.0)))
+        smallest = det / math.sqrt(top) if top > 0.0 else 0.0
+        first, second = Phi.tolist()       # the larger eigenvalue of the 2 x 2 Gram matrix Phi_s Phi_s^T
+        g11, g22 = sum(v * v for v in first), sum(v * v for v in second)
+        g12 = sum(u * v for u, v in zip(first, second))
+        largest = math.sqrt(0.5 * (g11 + g22) + math.sqrt(0.25 * (g11 - g22) ** 2 + g12 * g12))
+    else:
+        if not np.all(np.isfinite(Phi)):
+            return math.inf
+        smallest = float(np.linalg.svd(Phi_z, compute_uv=False)[-1])
+        largest = float(np.linalg.norm(Phi, 2))
+    value = largest / smallest if smallest > 0.0 else math.inf
+    return value if math.isfinite(value) else math.inf       # NaN entries: inf, refused as singular
+
+
 def orthogonal_complement(Phi, q_index, z_index, t=None):
     """R of (20) from Phi_s, in the order of s; see :meth:`System.orthogonal_complement`.
 
     Raises :class:`~closedloop.errors.SingularConfigurationError` when
-    cond(Phi_z) exceeds :data:`CONDITION_LIMIT` (or Phi_z is not finite).  A 1 x 1
-    Phi_z (r = 1) has condition 1 unless it is 0, so there |Phi_s| / |Phi_z| takes
-    its place: how small Phi_z is against the constraint's own gradient.
+    :func:`partition_condition` exceeds :data:`CONDITION_LIMIT` (or Phi_z is not finite).
     """
     Phi_q, Phi_z = Phi[:, q_index], Phi[:, z_index]
-    if Phi_z.shape == (1, 1):
-        measure = "|Phi_s| / |Phi_z|"
-        condition = math.inf if Phi_z[0, 0] == 0.0 else float(np.linalg.norm(Phi)) / abs(float(Phi_z[0, 0]))
-    else:
-        measure, condition = "cond(Phi_z)", condition_number(Phi_z)
-    if not condition <= CONDITION_LIMIT:   # NaN entries too: refused here, not by the solve
+    condition = partition_condition(Phi, z_index)
+    if condition > CONDITION_LIMIT:
         raise SingularConfigurationError(
-            f"Phi_z is singular{at_time(t)}: {measure} = {condition:.3g} > {CONDITION_LIMIT:.0e}, so R of "
+            f"Phi_z is singular{at_time(t)}: |Phi_s| |Phi_z^-1| = {condition:.3g} > {CONDITION_LIMIT:.0e}, so R of "
             "(20) does not exist at this configuration (a dead position of the independent coordinates); "
             "use the NullSpace formulation, which needs no partition"
         )
@@ -239,7 +270,6 @@ def null_space_basis(Phi, basis="svd", t=None):
         the constraints are dependent, assembly branches meet there, and no
         choice of coordinates passes such a bifurcation.
     """
-    one_of("basis", basis, NULL_SPACE_BASES)
     r, n = Phi.shape
     _, singular_values, Vt = np.linalg.svd(Phi)
     if singular_values[-1] < RANK_LIMIT * singular_values[0]:
@@ -251,5 +281,7 @@ def null_space_basis(Phi, basis="svd", t=None):
         )
     if basis == "svd":
         return Vt[r:].T
+    if basis != "pivoted":
+        one_of("basis", basis, NULL_SPACE_BASES)     # refuses it (NullSpace() checked its own already)
     pivots = _qr()(Phi, mode="r", pivoting=True)[1]
     return orthogonal_complement(Phi, np.sort(pivots[r:]), np.sort(pivots[:r]), t)

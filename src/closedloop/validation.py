@@ -131,8 +131,8 @@ def one_of(name, value, choices):
     InputError
         ``"{name}: unknown {value}; choose one of {choices}"``.
     """
-    try:
-        known = bool(value in choices)
+    try:                                   # a bool is no choice (True == 1 would pass for a case number)
+        known = not isinstance(value, (bool, np.bool_)) and bool(value in choices)
     except (TypeError, ValueError):        # an unhashable value is no key of a mapping; an array no choice
         known = False
     if not known:
@@ -153,6 +153,25 @@ def instance_of(name, value, kind):
     if not isinstance(value, kind):
         raise InputError(f"{name}: expected a {kind.__name__}, got {type(value).__name__}")
     return value
+
+
+def output_times(t_eval, t_start, t_end):
+    """``t_eval`` checked as output times: a flat list of finite times increasing strictly within
+    ``[t_start, t_end]`` (a float array), or None.
+
+    Raises
+    ------
+    InputError
+        Naming ``t_eval`` and the interval.
+    """
+    if t_eval is None:
+        return None
+    t_eval = finite_array("t_eval", t_eval)
+    if t_eval.size == 0:
+        raise InputError("t_eval: holds no time; give at least one, or None for the step ends")
+    if np.any(np.diff(t_eval) <= 0) or t_eval[0] < t_start or t_eval[-1] > t_end:
+        raise InputError(f"t_eval: must increase strictly within [{t_start:g}, {t_end:g}]")
+    return t_eval
 
 
 def finite_array(name, value, *, size=None):

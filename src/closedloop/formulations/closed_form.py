@@ -32,7 +32,7 @@ The closed form is exactly as singular as R of (20): where det Phi_z = 0 it
 divides by zero and raises.  Near that point it loses digits as R does (about
 cond(Phi_z) times the rounding; measured on a rocking crank: 4e-6 in s'' at
 cond(Phi_z) = 2e9, 3.5 at 2e15) but does not check it, where
-:class:`~closedloop.formulations.Orthogonal` refuses cond(Phi_z) above
+:class:`~closedloop.formulations.Orthogonal` refuses |Phi_s| |Phi_z^-1| above
 :data:`~closedloop.linalg.CONDITION_LIMIT`.  In a run the branch guard (solve_ivp
 methods) or the partition check (ode.dop853) watches det Phi_z's sign between
 steps.  Use :class:`closedloop.formulations.Augmented` or a null-space

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, SingularConfigurationError, at_time
 from ..kinematics import solve_dependent
-from ..linalg import condition_number, orthogonal_complement, solve_many, solve_small
+from ..linalg import orthogonal_complement, partition_condition, solve_many, solve_small
 from .base import Formulation
 
 __all__ = ["Minimal", "MinimalUnpacker", "minimal_accelerations", "CONTINUATION_PIECES", "CONTINUATION_STEP"]
@@ -69,7 +69,7 @@ class Minimal(Formulation):
     configuration where Phi_z is singular (a dead position of q), where the
     branch z(q) ends and the mechanism goes on along the other one.  Where an
     evaluation lands there or beyond it raises
-    :class:`~closedloop.errors.SingularConfigurationError` (cond(Phi_z) above
+    :class:`~closedloop.errors.SingularConfigurationError` (|Phi_s| |Phi_z^-1| above
     :data:`~closedloop.linalg.CONDITION_LIMIT`, or Newton finds no z), as it does
     when Newton's solution jumps to another assembly branch (det Phi_z changes
     sign).  But when every evaluation stays short of it, q turns back on the
@@ -82,7 +82,7 @@ class Minimal(Formulation):
 
     name = "minimal"
     guards_branch = True          # it stops where Newton's z would change branch
-    guards_partition = True       # R of (20) is refused where cond(Phi_z) > CONDITION_LIMIT
+    guards_partition = True       # R of (20) is refused where |Phi_s| |Phi_z^-1| > CONDITION_LIMIT
 
     def state_names(self, system):
         return [name for k, name in enumerate(super().state_names(system))
@@ -166,13 +166,13 @@ class MinimalUnpacker:
             s, Phi, side = self._solve_on_branch(y[:f], t)
         except (ConvergenceError, SingularConfigurationError) as error:
             raise SingularConfigurationError(
-                f"minimal coordinates failed{at_time(t)}: {error} [cond(Phi_z) was "
-                f"{condition_number(system.jacobian(self._last_s)[:, zi]):.3g} at the last solved state]; "
+                f"minimal coordinates failed{at_time(t)}: {error} [|Phi_s| |Phi_z^-1| was "
+                f"{partition_condition(system.jacobian(self._last_s), zi):.3g} at the last solved state]; "
                 "q can not pass a dead position of this partition: use the NullSpace formulation"
             ) from None
         R = orthogonal_complement(Phi, qi, zi, t)
         if side != self._side:
-            condition = condition_number(system.jacobian(self._last_s)[:, zi])
+            condition = partition_condition(system.jacobian(self._last_s), zi)
             moved = np.abs(y[:f] - self._last_s[qi]).max()
             if moved / CONTINUATION_PIECES[-1] <= CONTINUATION_STEP:
                 why = ("so the path met a dead position of q, or Newton's z jumped to another branch near one; "
@@ -184,7 +184,7 @@ class MinimalUnpacker:
                        "max_step, or use a formulation that does not solve for z (Orthogonal, NullSpace)")
             raise SingularConfigurationError(
                 f"minimal coordinates left their assembly branch{at_time(t)}: det(Phi_z) changed sign "
-                f"(cond(Phi_z) was {condition:.3g} at the last state on the branch), {why}"
+                f"(|Phi_s| |Phi_z^-1| was {condition:.3g} at the last state on the branch), {why}"
             )
         self._last_y, self._last_s, self._last_R = y.copy(), s, R
         return s, R

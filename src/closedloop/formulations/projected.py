@@ -185,8 +185,8 @@ class Projected(Augmented):
         if not (isinstance(method, str) and method in EXPLICIT_RUNGE_KUTTA_METHODS):
             shown = method if isinstance(method, str) else getattr(method, "__name__", repr(method))
             raise InputError(
-                f"method: the projected formulation needs an explicit Runge-Kutta method whose state "
-                f"can be reset after each step ({', '.join(EXPLICIT_RUNGE_KUTTA_METHODS)}), got {shown!r}"
+                f"method: the projected formulation needs an explicit Runge-Kutta method of solve_ivp, whose "
+                f"state it resets after each step ({', '.join(EXPLICIT_RUNGE_KUTTA_METHODS)}), got {shown!r}"
             )
 
     def integrator(self, system, method):

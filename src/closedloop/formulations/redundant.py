@@ -129,7 +129,7 @@ class Orthogonal(_Stabilised):
     """
 
     name = "orthogonal"
-    guards_partition = True       # R of (20) is refused where cond(Phi_z) > CONDITION_LIMIT
+    guards_partition = True       # R of (20) is refused where |Phi_s| |Phi_z^-1| > CONDITION_LIMIT
 
     def accelerations(self, system, t, s, sd, mode=None):
         """s'' from (26)."""

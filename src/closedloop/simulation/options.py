@@ -10,10 +10,10 @@ import numpy as np
 
 from ..errors import InputError
 from ..formulations import Formulation
-from ..kinematics import InitialState
+from ..kinematics import initial_state_arrays
 from ..linalg import null_space_basis
 from ..methods import IMPLICIT_METHODS, SOLVER_METHODS
-from ..validation import finite_array, finite_number, is_real, positive_integer, shown, shown_array
+from ..validation import finite_array, finite_number, is_real, output_times, positive_integer, shown, shown_array
 from . import dop853
 from .switching import MIN_PROGRESS, no_progress
 
@@ -189,13 +189,7 @@ def _check_method(formulation, method, switching, options):
 
 
 def _check_initial_state(system, initial_state):
-    if not isinstance(initial_state, InitialState):
-        raise InputError("initial_state: expected an InitialState (see consistent_initial_state)")
-    s0, sd0 = initial_state.s, initial_state.sd
-    if s0.shape != (system.n,) or sd0.shape != (system.n,):
-        raise InputError(f"initial_state: need {system.n} coordinates and {system.n} velocities")
-    if not (np.isfinite(s0).all() and np.isfinite(sd0).all()):
-        raise InputError("initial_state: coordinates and velocities must be finite")
+    s0, sd0 = initial_state_arrays(initial_state, system.n)
     f0, Phi0 = system.constraints_and_jacobian(s0)
     scale = 1.0 + np.abs(s0).max()
     velocity = Phi0 @ sd0
@@ -239,17 +233,6 @@ def _check_inertia(system, s0, sd0, Phi0):
         )
 
 
-def _check_output_times(t_eval, t_start, t_end):
-    if t_eval is None:
-        return None
-    t_eval = finite_array("t_eval", t_eval)
-    if t_eval.size == 0:
-        raise InputError("t_eval: holds no time; give at least one, or None for the step ends")
-    if np.any(np.diff(t_eval) <= 0) or t_eval[0] < t_start or t_eval[-1] > t_end:
-        raise InputError(f"t_eval: must increase strictly within [{t_start:g}, {t_end:g}]")
-    return t_eval
-
-
 def _check_steps(solver_options):
     """The step options: ``max_step`` (> 0, inf for none) and ``first_step`` (> 0) as floats [s], ``nsteps``."""
     checked = dict(solver_options)
@@ -279,7 +262,7 @@ def run_options(system, initial_state, formulation, *, t_start, t_end, method, r
     _check_initial_state(system, initial_state)
     rtol, atol = (_tolerance_entries(name, value, system, initial_state, formulation, method, work)
                   for name, value in (("rtol", rtol), ("atol", atol)))
-    t_eval = _check_output_times(t_eval, t_start, t_end)
+    t_eval = output_times(t_eval, t_start, t_end)
     if switching == "naive" and (stop_when is not None or work):
         name = "stop_when" if stop_when is not None else "work"
         raise InputError(f"{name}: a run with switching='naive' neither stops early nor integrates the work; "

@@ -37,11 +37,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import gas_law
-from ..errors import InputError, IntegrationError
+from ..errors import IntegrationError
 from ..methods import SOLVE_IVP_METHODS
 from ..slider_crank import DEFAULT_READING, OMEGA, TORQUE_RIPPLE, SliderCrankParameters, get_reading
-from ..kinematics import InitialState
-from ..validation import finite_array, instance_of, one_of, positive_integer, positive_number
+from ..kinematics import initial_state_arrays
+from ..validation import instance_of, one_of, output_times, positive_integer, positive_number
 
 __all__ = ["LagrangesBaseline", "BaselineResult"]
 
@@ -198,13 +198,8 @@ class LagrangesBaseline:
         positive_number("rtol", rtol)
         positive_number("atol", atol)
         positive_integer("max_nfev", max_nfev)
-        instance_of("initial_state", initial_state, InitialState)
-        y0 = np.concatenate((finite_array("initial_state.s", initial_state.s, size=3),
-                             finite_array("initial_state.sd", initial_state.sd, size=3)))
-        if t_eval is not None:
-            t_eval = finite_array("t_eval", t_eval)
-            if t_eval.size == 0 or np.any(np.diff(t_eval) <= 0) or t_eval[0] < 0.0 or t_eval[-1] > t_end:
-                raise InputError(f"t_eval: must increase strictly within [0, {t_end:g}] s")
+        y0 = np.concatenate(initial_state_arrays(initial_state, 3))
+        t_eval = output_times(t_eval, 0.0, t_end)
         from scipy.integrate import solve_ivp   # here, before the clock starts (not when the command line starts)
 
         calls = [0]

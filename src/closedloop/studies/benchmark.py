@@ -248,21 +248,19 @@ class _Context:
     system: object
     baseline: object
     state: object
-    grid: np.ndarray                # the output grid over [0, t_end], t_check among its times
-    check_index: int                # where t_check is in the grid
+    grid: np.ndarray                # the output grid over [0, t_end]: the runs end at its last time
+    check_index: int                # where t_check, where error_t10 is measured, is in the grid
     reference: np.ndarray           # 6 x grid.size
-    t_end: float = T_END
-    t_check: float = T_CHECK
 
 
 def _run(entry, context, method, rtol, t_eval, residuals=False):
     """One run: ``(t, y (6 x N), nfev)``, and ``(|f|, |f'|)`` at the output times if asked."""
     if entry.formulation is None:
-        res = context.baseline.simulate(context.state, context.t_end, method, rtol, rtol, t_eval=t_eval)
+        res = context.baseline.simulate(context.state, float(context.grid[-1]), method, rtol, rtol, t_eval=t_eval)
         y = np.vstack((res.s, res.sd))
         norms = _residuals(context.system, y) if residuals else None
     else:
-        res = simulate(context.system, context.state, context.t_end, formulation=entry.formulation,
+        res = simulate(context.system, context.state, float(context.grid[-1]), formulation=entry.formulation,
                        method=method, rtol=rtol, atol=rtol, t_eval=t_eval)
         y = np.vstack((res.s, res.sd))
         norms = (res.constraint_error, res.velocity_constraint_error)     # simulate computed them
@@ -286,12 +284,12 @@ def _measure(entry, context, case, method, rtol, repeats):
         t, y, _, (f_norm, fd_norm) = _run(entry, context, method, rtol, context.grid, residuals=True)
         if t.size != context.grid.size:
             raise ClosedLoopError(f"the run stopped at t = {t[-1]:.6g} s")
-        cpu = []
+        cpu, t_check = [], float(context.grid[context.check_index])
         for _ in range(max(1, repeats)):
             start = time.process_time()
-            t_timed, y_timed, nfev = _run(entry, context, method, rtol, (context.t_check, context.t_end))
+            t_timed, y_timed, nfev = _run(entry, context, method, rtol, (t_check, context.grid[-1]))
             cpu.append(time.process_time() - start)
-        if t_timed.size != 2 or t_timed[0] != context.t_check:
+        if t_timed.size != 2 or t_timed[0] != t_check:
             raise ClosedLoopError(f"the timed run stopped at t = {t_timed[-1]:.6g} s")
     except ClosedLoopError as error:
         row.update(status=f"failed: {error}", cpu_s=None, cpu_repeats_s=[], nfev=None, error_t10=None,
@@ -389,7 +387,7 @@ def run_study(settings=DEFAULT_SETTINGS, entries=None, progress=None):
         state = initial_state(system, number.phi0, number.dphi0)
         reference, check = _reference(system, state, grid, check_index)
         data["references"][str(case)] = check
-        context = _Context(system, baseline, state, grid, check_index, reference, settings.t_end, settings.t_check)
+        context = _Context(system, baseline, state, grid, check_index, reference)
         for entry in entries:
             for method in (m for m in settings.methods_of(case, entry.key) if m in entry.methods):
                 rows = _curve(entry, context, case, method, settings)
@@ -508,7 +506,7 @@ def residual_traces(case=2, method="DOP853", rtol=1e-6, keys=("augmented", "baum
     system = slider_crank_system()
     number = get_case(case)
     state = initial_state(system, number.phi0, number.dphi0)
-    grid = np.linspace(0.0, T_END, GRID_POINTS)
+    grid, _ = _grid(DEFAULT_SETTINGS)
     entries = {e.key: e for e in study_entries()}
     unknown = [k for k in keys if k not in entries]
     if unknown:

@@ -96,7 +96,7 @@ def gas_work_per_cycle(parameters=None, reading=DEFAULT_READING):
     ----------
     parameters : SliderCrankParameters, optional
         Fix the stroke; default Table 1 (exactly the law's range [1.5, 5.5] m).
-        The crank must turn fully (l1 < l2), or the slider has no such cycle.
+        The crank must turn fully (``full_rotation``, l1 < l2), or the slider has no such cycle.
     reading : str or Reading, optional
 
     Returns
@@ -107,15 +107,15 @@ def gas_work_per_cycle(parameters=None, reading=DEFAULT_READING):
     Raises
     ------
     InputError
-        For parameters with l1 >= l2.
+        For parameters of a rocking crank (``full_rotation=False``).
     """
     from scipy.integrate import quad
 
     parameters = instance_of("parameters", SliderCrankParameters() if parameters is None else parameters,
                              SliderCrankParameters)
-    if not parameters.l1 < parameters.l2:
-        raise InputError(f"parameters: a slider cycle from l2 - l1 to l2 + l1 needs a crank that turns fully, "
-                         f"l1 < l2; got l1 = {parameters.l1:g} m, l2 = {parameters.l2:g} m")
+    if not parameters.full_rotation:                # l1 < l2 exactly when the crank turns fully
+        raise InputError(f"parameters: a slider cycle from l2 - l1 to l2 + l1 needs a crank that turns fully "
+                         f"(full_rotation=True, l1 < l2); got l1 = {parameters.l1:g} m, l2 = {parameters.l2:g} m")
     reading = get_reading(reading)
     inner, outer = parameters.l2 - parameters.l1, parameters.l2 + parameters.l1
     low, high = max(inner, GAS_STROKE[0]), min(outer, GAS_STROKE[1])
