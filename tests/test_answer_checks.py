@@ -113,3 +113,52 @@ def test_a_symbolic_check_tells_the_wrong_kind_of_entries_without_a_warning(chec
     assert not right
     assert "expected a sympy expression or matrix" in line
     assert not [w for w in recwarn if "deprecated" in str(w.message).lower()]
+
+
+def _compare(label, answer):
+    """The verdict of the check ``label`` on ``answer``, without its printed line."""
+    check = next(check for check in CHECKS if check.label == label)
+    return bool(check.compare(answer, check.expected_value()))
+
+
+def test_plausible_slips_are_not_taken_for_right_answers():
+    """Slips a review found the checks let through, each computed as a student would make it, against
+    the right answer computed the page's own way (exercises 2.7, 3.6, 9.6 and 11.5)."""
+    from closedloop import Augmented, baumgarte_p2, simulate
+    from closedloop.slider_crank import CASES, OMEGA, initial_state, slider_crank_system
+    from closedloop.studies.energy import gas_outward_work
+
+    ch03, ch09, ch11 = (importlib.import_module(f"checking.{name}") for name in ("ch03", "ch09", "ch11"))
+    system = slider_crank_system()
+
+    # 2.7: case 1's drift for case 4's (1.7 % apart)
+    def drift(number):
+        case = CASES[number]
+        return simulate(system, initial_state(system, case.phi0, case.dphi0), 20.0, formulation=Augmented(),
+                        method="RK45", rtol=1e-6, atol=1e-6).max_constraint_error
+    assert _compare("2.7", drift(4)) and not _compare("2.7", drift(1))
+
+    # 3.6: alpha and beta swapped (with f' = 5 f, (2, 8) and (8, 2) gave the same p2~)
+    state = initial_state(system, 2.0, 1.5)
+    s, sd = state.s + np.array([0.0, 0.0, 2e-3]), state.sd + np.array([0.0, 0.0, 1e-2])
+    _, _, f, Phi, gamma = system.dynamics(0.0, s, sd)
+    alpha, beta = ch03.P2_GAINS
+    assert _compare("3.6", baumgarte_p2(Phi, gamma, f, sd, alpha, beta))
+    assert not _compare("3.6", baumgarte_p2(Phi, gamma, f, sd, beta, alpha))
+
+    # 9.6: the work of the mean torque only, the ripple's left out (the trapezoidal rule, as the page)
+    case = CASES[2]
+    run = simulate(system, initial_state(system, case.phi0, case.dphi0), ch09.WORK_END,
+                   formulation=ch09.Baumgarte(5, 5), method="DOP853", rtol=1e-10, atol=1e-10,
+                   t_eval=ch09.WORK_TIMES, work=True)
+    ripple = 0.01 * np.sin(OMEGA * run.t) * run.velocity("phi")
+    ripple_work = float(np.sum(0.5 * (ripple[1:] + ripple[:-1]) * np.diff(run.t)))
+    right = run.work[-1] - run.work[0]
+    assert _compare("9.6", right) and not _compare("9.6", right - ripple_work)
+
+    # 11.5: the turning points left out (the intervals outward at both ends, or at their start only)
+    result = ch11._run(3)
+    x, rate = result.coordinate("x"), result.velocity("x")
+    steps = np.diff(gas_outward_work(x))
+    assert not _compare("11.5", float(np.sum(steps[(rate[:-1] > 0) & (rate[1:] > 0)])))
+    assert not _compare("11.5", float(np.sum(steps[rate[:-1] > 0])))

@@ -52,7 +52,8 @@ CHECKS = {
                  "the slider's row of (8) involves only the third column of Phi_s; which entries of it "
                  "are not zero, and with which sign does lambda_1 appear?",
                  scaled()),
-    "2.7": Check("2.7", _drift_case_4, numeric(2e-2, 0.0),
+    # 0.5 %: the largest |f| is at t = 20 s, the same with any outputs; case 1's is 1.7 % off case 4's
+    "2.7": Check("2.7", _drift_case_4, numeric(5e-3, 0.0),
                  "integrate (12) with Augmented() for 20 s from case 4's consistent initial state, RK45 "
                  "with rtol = atol = 1e-6, and take the largest |f| of (32) over the run.",
                  scaled()),

@@ -9,8 +9,9 @@ from . import Check, another_letter, as_numbers, choice, make_check, numeric, sc
 
 #: alpha, beta of exercise 3.5 (overdamped).
 ROOT_GAINS = (5.0, 4.0)
-#: alpha, beta of exercise 3.6.
-P2_GAINS = (2.0, 8.0)
+#: alpha, beta of exercise 3.6.  The spoiled state has f' = 5 f, so only 10 alpha + beta^2 enters (17):
+#: it must differ from 10 beta + alpha^2, or the gains swapped would pass (2, 8 and 8, 2 both give 84).
+P2_GAINS = (3.0, 8.0)
 #: The step of exercises 3.7 and 3.8 [s].
 STEP = 0.01
 

@@ -88,7 +88,8 @@ CHECKS = {
                  "with alpha = beta the two roots of (9.a) coincide and are real; where does RK4's "
                  "stability region meet the negative real axis?",
                  lambda expected: 0.5 * expected),
-    "9.6": Check("9.6", _work, numeric(1e-4, 0),
+    # 1e-5: the trapezoidal rule is 1e-6 off; leaving out the torque's ripple is 2.6e-5 off
+    "9.6": Check("9.6", _work, numeric(1e-5, 0),
                  "the power is M(t) phi' + F_x x_C' at each output time (mind force_sign, and that "
                  "gas_force takes x_C and x_C'); integrate it over the 5001 times from 0 to 5 s.",
                  lambda expected: -expected),

@@ -87,7 +87,9 @@ CHECKS = {
                   "logarithm's argument is the ratio of the distances 6 - x_C at the two ends. The gas "
                   "takes energy out, so the work is negative.",
                   lambda expected: -expected),
-    "11.5": Check("11.5", _gas_work_case_3, numeric(1e-5, 0.0),
+    # 1e-7: the page's linear turning points are 3.8e-8 off; leaving the turning points out is 2.3e-7
+    # off, and summing every interval that starts outward 2.1e-6
+    "11.5": Check("11.5", _gas_work_case_3, numeric(1e-7, 0.0),
                   "add U(x_C(t_k+1)) - U(x_C(t_k)) only over intervals where the slider moves out; where "
                   "x_C' changes sign, stop or start at the turning point. Use the run of case 3 at "
                   "rtol = 1e-10 over 20 s.",
