@@ -71,6 +71,35 @@ def test_summary_is_readable(capsys):
     assert len(text.splitlines()) <= 8
 
 
+def test_a_short_run_says_what_oscillation_means_and_the_columns_align(capsys):
+    """Case 2 over 2.5 s has turned less than 2 pi and still turns forward: "oscillation" by the rule alone
+    was misleading, so the line says what the rule saw. The second line of the final state sat 2 columns
+    off for a t_end such as 2.5."""
+    assert main(["simulate", "--case", "2", "--t-end", "2.5"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "motion: oscillation (the crank did not turn 2 pi beyond its start in 2.5 s)" in lines
+    k = next(i for i, line in enumerate(lines) if line.startswith("at t ="))
+    assert lines[k].index("phi =") == lines[k + 1].index("phi' =")
+
+
+def test_the_default_method_is_one_the_formulation_takes(capsys):
+    """ode.dop853 for the closed form; DOP853 for the formulations ode.dop853 refuses (it has no dense
+    output for their branch guard): --formulation baumgarte alone used to fail on a method never given."""
+    for formulation, method in (("closed-form", "ode.dop853"), ("baumgarte", "DOP853"), ("augmented", "DOP853")):
+        assert main(["simulate", "--case", "2", "--t-end", "1", "--formulation", formulation, "--json"]) == 0
+        assert json.loads(capsys.readouterr().out)["method"] == method
+
+
+def test_a_tolerance_too_loose_to_classify_is_refused_before_the_run(tmp_path, capsys):
+    """It used to integrate, then fail in classify_motion naming 'result', with no figure written."""
+    path = tmp_path / "loose.png"
+    assert main(["simulate", "--case", "4", "--rtol", "1e-2", "--plot", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("closedloop: error: --rtol: must be <= 0.001")
+    assert not path.exists()
+    assert main(["simulate", "--case", "4", "--t-end", "1", "--rtol", "1e-3", "--atol", "1e-3"]) == 0
+
+
 def test_plot_writes_a_png(tmp_path, capsys):
     path = tmp_path / "case3.png"
     assert main(["simulate", "--case", "3", "--t-end", "4", "--plot", str(path)]) == 0

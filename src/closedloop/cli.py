@@ -51,6 +51,9 @@ DEFAULT_T_END = 20.0
 #: form (26) with the compiled DOP853 reaches every case's accuracy first). Any other is an option:
 #: the default until issue 14 was --formulation baumgarte --method RK45.
 DEFAULT_METHOD = "ode.dop853"
+#: The method for a formulation that does not take DEFAULT_METHOD (Augmented, Baumgarte, NullSpace, Projected:
+#: the compiled code has no dense output for their branch guard).
+FALLBACK_METHOD = "DOP853"
 DEFAULT_FORMULATION = "closed-form"
 
 
@@ -115,7 +118,7 @@ class _Parser(argparse.ArgumentParser):
 def build_parser():
     """The argument parser of ``closedloop``."""
     from .formulations import FORMULATION_NAMES
-    from .slider_crank import DEFAULT_READING, READINGS
+    from .slider_crank import CLASSIFY_RTOL_LIMIT, DEFAULT_READING, READINGS
 
     parser = _Parser(prog="closedloop", description="Simulate the slider-crank of Khang, Quyen and Mai Anh (2018).")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -126,9 +129,11 @@ def build_parser():
     sim.add_argument("--t-end", type=str, default=str(DEFAULT_T_END), help="final time [s] (default 20)")
     sim.add_argument("--formulation", default=DEFAULT_FORMULATION,
                      help=f"{', '.join(FORMULATION_NAMES)} (default {DEFAULT_FORMULATION})")
-    sim.add_argument("--method", default=DEFAULT_METHOD,
-                     help=f"integration method: {', '.join(SOLVER_METHODS)} (default {DEFAULT_METHOD})")
-    sim.add_argument("--rtol", type=str, default="1e-9", help="relative tolerance (default 1e-9)")
+    sim.add_argument("--method",
+                     help=f"integration method: {', '.join(SOLVER_METHODS)} (default {DEFAULT_METHOD} where the "
+                          f"formulation takes it, else {FALLBACK_METHOD})")
+    sim.add_argument("--rtol", type=str, default="1e-9",
+                     help=f"relative tolerance, at most {CLASSIFY_RTOL_LIMIT:g} to classify the motion (default 1e-9)")
     sim.add_argument("--atol", type=str, default="1e-9", help="absolute tolerance (default 1e-9)")
     sim.add_argument("--alpha", type=str, help="Baumgarte alpha of (15) (default 5)")
     sim.add_argument("--beta", type=str, help="Baumgarte beta of (15) (default 5)")
@@ -157,7 +162,8 @@ def _add_basin_parser(commands):
     basin.add_argument("--step", type=str, default=None, help="step of the batch integrator [s] (default 0.02)")
     basin.add_argument("--workers", type=str, default=None,
                        help="processes (default: one per core for 1000 cells or more, else 1)")
-    basin.add_argument("--json", metavar="FILE", help="write the grid and the outcome of each cell as JSON")
+    basin.add_argument("--json", metavar="FILE|-",
+                       help="write the grid and the outcome of each cell as JSON (- for standard output)")
     basin.add_argument("--png", metavar="FILE.png", help="write the map as a PNG figure")
 
 
@@ -191,7 +197,8 @@ def _add_benchmark_parser(commands):
             f"{', '.join(f'{r:.0e}' for r in quick.rtols)}; {quick.repeats} repeat; cap {quick.time_cap_s:g} s "
             "(under a minute)"))
     bench.add_argument("--quick", action="store_true", help="the small study (see above)")
-    bench.add_argument("--json", metavar="FILE", help="write the rows and the settings that made them as JSON")
+    bench.add_argument("--json", metavar="FILE|-",
+                       help="write the rows and the settings that made them as JSON (- for standard output)")
     bench.add_argument("--figures", metavar="DIR", help="write the figures (PNG) into DIR, created if needed")
 
 
@@ -233,20 +240,26 @@ def run_simulate(args):
     from .formulations import formulation_from_name
     from .simulation import simulate
     from .simulation.options import methods_taking
-    from .slider_crank import classify_motion, get_reading, initial_state, slider_crank_system
+    from .slider_crank import CLASSIFY_RTOL_LIMIT, classify_motion, get_reading, initial_state, slider_crank_system
 
     case, phi0, dphi0 = _initial_condition(args)
     t_end = _positive("t_end", args.t_end, unit="s")
     rtol, atol = _positive("rtol", args.rtol), _positive("atol", args.atol)
+    if rtol > CLASSIFY_RTOL_LIMIT:                   # classify_motion would refuse the run after it
+        raise InputError(f"--rtol: must be <= {CLASSIFY_RTOL_LIMIT:g} for the motion to be classified "
+                         f"(a full rotation told from an oscillation), got {rtol:g}")
     formulation = formulation_from_name(args.formulation, _number("alpha", args.alpha), _number("beta", args.beta))
-    one_of("method", args.method, methods_taking(formulation))
+    methods = methods_taking(formulation)
+    method = args.method if args.method is not None else (
+        DEFAULT_METHOD if DEFAULT_METHOD in methods else FALLBACK_METHOD)
+    one_of("method", method, methods)
     reading = get_reading(args.reading)
     _check_figure_file("--plot", args.plot)
 
     system = slider_crank_system(reading=reading)
     state = initial_state(system, phi0, dphi0)
     t_eval = np.linspace(0.0, t_end, int(min(4001, max(201, 100 * t_end + 1))))
-    result = simulate(system, state, t_end, formulation=formulation, method=args.method,
+    result = simulate(system, state, t_end, formulation=formulation, method=method,
                       rtol=rtol, atol=atol, t_eval=t_eval)
     final = {name: float(result.s[k, -1]) for k, name in enumerate(("phi", "psi", "x"))}
     final.update({f"d{name}": float(result.sd[k, -1]) for k, name in enumerate(("phi", "psi", "x"))})
@@ -258,7 +271,7 @@ def run_simulate(args):
         "formulation": formulation.name,
         "alpha": getattr(formulation, "alpha", None),
         "beta": getattr(formulation, "beta", None),
-        "method": args.method,
+        "method": method,
         "rtol": rtol,
         "atol": atol,
         "reading": reading.name,
@@ -275,7 +288,8 @@ def run_simulate(args):
         from .plotting import plot_slider_crank
 
         label = f"case {case}" if case else f"phi0 = {phi0:g} rad, dphi0 = {dphi0:g} rad/s"
-        save_figure(plot_slider_crank(result, title=f"Slider-crank, {label}: {summary['motion']}"), args.plot, dpi=120)
+        motion = summary["motion"] or "not classified (see the warning)"
+        save_figure(plot_slider_crank(result, title=f"Slider-crank, {label}: {motion}"), args.plot, dpi=120)
         summary["plot"] = args.plot
     return summary
 
@@ -406,20 +420,30 @@ def _format_basin(basin, args):
     return "\n".join(lines)
 
 
+def _motion_text(summary):
+    """The motion as the summary line says it: "oscillation" means no full turn within the run."""
+    if summary["motion"] is None:
+        return "not classified (see the warning)"
+    if summary["motion"] == "oscillation":
+        return f"oscillation (the crank did not turn 2 pi beyond its start in {summary['t_end']:g} s)"
+    return summary["motion"]
+
+
 def _format(summary):
     head = f"case {summary['case']}: " if summary["case"] else ""
     gains = (f" (alpha = {summary['alpha']:g}, beta = {summary['beta']:g})"
              if summary["alpha"] is not None else "")
     f = summary["final"]
+    at = f"at t = {summary['t_end']:g} s:"
     lines = [
         f"{head}phi0 = {summary['phi0']:.6g} rad, dphi0 = {summary['dphi0']:.6g} rad/s, "
         f"t = 0 .. {summary['t_end']:g} s, reading {summary['reading']}",
         f"formulation {summary['formulation']}{gains}, {summary['method']}, "
         f"rtol = {summary['rtol']:g}, atol = {summary['atol']:g}",
-        f"motion: {summary['motion'] or 'not classified (see the warning)'}"
+        f"motion: {_motion_text(summary)}"
         + (f" (the slider sticks at t = {summary['stuck_at']:.2f} s)" if summary["stuck_at"] is not None else ""),
-        f"at t = {summary['t_end']:g} s: phi = {f['phi']:.6f} rad, psi = {f['psi']:.6f} rad, x_C = {f['x']:.6f} m",
-        f"{'':{len(str(summary['t_end'])) + 9}}phi' = {f['dphi']:.6f} rad/s, psi' = {f['dpsi']:.6f} rad/s, "
+        f"{at} phi = {f['phi']:.6f} rad, psi = {f['psi']:.6f} rad, x_C = {f['x']:.6f} m",
+        f"{'':{len(at) + 1}}phi' = {f['dphi']:.6f} rad/s, psi' = {f['dpsi']:.6f} rad/s, "
         f"x_C' = {f['dx']:.6f} m/s",
         f"max |f| (32) = {summary['max_constraint_error']:.2e}, {summary['nfev']} right-hand-side "
         f"evaluations, {summary['cpu_s']:.3f} s CPU",

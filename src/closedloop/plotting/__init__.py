@@ -8,7 +8,11 @@
   every figure function here and by :func:`use_book_style` in a chapter that draws its own figure;
 - :mod:`~closedloop.plotting.tables`: `Table`, the book's printed tables as HTML tables.
 
-Every public name is re-exported here, so ``from closedloop.plotting import X`` works.  No module
+The figures, drawings and tables of these modules are re-exported here, so ``from
+closedloop.plotting import X`` works for them; the interactive figures (Bokeh) are imported
+from :mod:`~closedloop.plotting.interactive` itself, which a chapter pays for only when it
+draws one, and the style's helpers (``STYLE_PATH``, ``rendered_text_px``) from
+:mod:`~closedloop.plotting.style`, and `playback` from :mod:`~closedloop.plotting.mechanism`.  No module
 of the package imports matplotlib at import time, so simulating never pulls it in; and the
 package lies outside the benchmark's source fingerprint, so a figure change never makes the
 stored study stale.
