@@ -269,3 +269,17 @@ def _calls(text, opening):
             end += 1
         calls.append(text[match.start():end])
     return calls
+
+
+def test_a_case_without_a_successful_run_is_named_not_a_zero_division():
+    """work_precision_figure divided by zero columns when every run of a case had failed; the command
+    then drew no figure for that case at all."""
+    import json
+    from pathlib import Path
+
+    from closedloop.plotting import work_precision_figure
+
+    rows = json.loads((Path(__file__).resolve().parents[1] / "book" / "data" / "benchmark.json").read_text())["rows"]
+    failed = [dict(row, status="failed: made up") if row["case"] == 3 else row for row in rows]
+    with pytest.raises(ValueError, match=r"^case 3: no run of the study succeeded"):
+        work_precision_figure(failed, 3)

@@ -404,12 +404,13 @@ class _ProgressBar:
 
 def _format_basin(basin, args):
     rows, columns = basin.outcome.shape
+    cells, rotating = basin.outcome.size, int(np.count_nonzero(basin.outcome == 1))   # 1 in 10 000 is 0.0 %
     lines = [
         f"{columns} x {rows} cells: phi0 {basin.phi0[0]:.4g} .. {basin.phi0[-1]:.4g} rad, "
         f"dphi0 {basin.dphi0[0]:.4g} .. {basin.dphi0[-1]:.4g} rad/s, t = 0 .. {basin.t_end:g} s, "
         f"reading {basin.reading}",
-        f"full rotation: {100 * basin.fraction_rotating:.1f} % of the cells, oscillation: "
-        f"{100 * (1 - basin.fraction_rotating):.1f} %",
+        f"full rotation: {100 * basin.fraction_rotating:.1f} % of the cells ({rotating} of {cells}), "
+        f"oscillation: {100 * (1 - basin.fraction_rotating):.1f} % ({cells - rotating})",
         f"{basin.wall_time:.1f} s wall, {basin.cpu_time:.1f} s CPU, {basin.workers} worker(s), "
         f"step {basin.step:g} s",
     ]
@@ -483,8 +484,9 @@ def run_benchmark(args):
             figures.mkdir(parents=True, exist_ok=True)
         except OSError as error:
             raise WriteError(f"cannot create {figures}: {error.strerror or error}") from None
-        written = {f"work_precision_case{case}.png": work_precision_figure(data["rows"], case)
-                   for case in data["settings"]["cases"]}
+        drawn = {row["case"] for row in data["rows"] if row["status"] == "ok"}    # a case whose runs all failed
+        written = {f"work_precision_case{case}.png": work_precision_figure(data["rows"], case)   # has no figure
+                   for case in data["settings"]["cases"] if case in drawn}
         written["best_per_formulation.png"] = pareto_figure(data["rows"])
         written["residuals_case2.png"] = residual_figure(
             residual_traces(2, "DOP853", 1e-6), "Case 2, DOP853, rtol = atol = 1e-6")

@@ -88,6 +88,11 @@ def work_precision_figure(rows, case, entries=None):
     Returns
     -------
     matplotlib.figure.Figure
+
+    Raises
+    ------
+    ValueError
+        If no row of ``case`` succeeded (there is no curve to draw).
     """
     from matplotlib.figure import Figure
 
@@ -97,6 +102,8 @@ def work_precision_figure(rows, case, entries=None):
     styles = _entry_styles(labels)
     ok = [r for r in rows if r["case"] == case and r["status"] == "ok"]
     methods = [m for m in ALL_METHODS if any(r["method"] == m for r in ok)]
+    if not methods:
+        raise ValueError(f"case {case}: no run of the study succeeded, so there is no curve to draw")
     columns = min(3, len(methods))                # the text column is 6.4 inches: at most 3 panels a row
     rows_of_panels = -(-len(methods) // columns)
     with book_style():
