@@ -55,6 +55,8 @@ DEFAULT_METHOD = "ode.dop853"
 #: the compiled code has no dense output for their branch guard).
 FALLBACK_METHOD = "DOP853"
 DEFAULT_FORMULATION = "closed-form"
+#: What the summary and the figure say of a run whose warnings keep it from being classified.
+NOT_CLASSIFIED = "not classified (see the warning)"
 
 
 #: An option's value that argparse would take for an option: ``-1e-3``, ``-.5``, ``-inf``, ``-1:2:4``.
@@ -288,7 +290,7 @@ def run_simulate(args):
         from .plotting import plot_slider_crank
 
         label = f"case {case}" if case else f"phi0 = {phi0:g} rad, dphi0 = {dphi0:g} rad/s"
-        motion = summary["motion"] or "not classified (see the warning)"
+        motion = summary["motion"] or NOT_CLASSIFIED
         save_figure(plot_slider_crank(result, title=f"Slider-crank, {label}: {motion}"), args.plot, dpi=120)
         summary["plot"] = args.plot
     return summary
@@ -424,7 +426,7 @@ def _format_basin(basin, args):
 def _motion_text(summary):
     """The motion as the summary line says it: "oscillation" means no full turn within the run."""
     if summary["motion"] is None:
-        return "not classified (see the warning)"
+        return NOT_CLASSIFIED
     if summary["motion"] == "oscillation":
         return f"oscillation (the crank did not turn 2 pi beyond its start in {summary['t_end']:g} s)"
     return summary["motion"]
