@@ -124,7 +124,7 @@ def _compare(label, answer):
 def test_plausible_slips_are_not_taken_for_right_answers():
     """Slips a review found the checks let through, each computed as a student would make it, against
     the right answer computed the page's own way (exercises 2.7, 3.6, 9.6 and 11.5)."""
-    from closedloop import Augmented, baumgarte_p2, simulate
+    from closedloop import Augmented, Baumgarte, baumgarte_p2, simulate
     from closedloop.slider_crank import CASES, OMEGA, initial_state, slider_crank_system
     from closedloop.studies.energy import gas_outward_work
 
@@ -149,7 +149,7 @@ def test_plausible_slips_are_not_taken_for_right_answers():
     # 9.6: the work of the mean torque only, the ripple's left out (the trapezoidal rule, as the page)
     case = CASES[2]
     run = simulate(system, initial_state(system, case.phi0, case.dphi0), ch09.WORK_END,
-                   formulation=ch09.Baumgarte(5, 5), method="DOP853", rtol=1e-10, atol=1e-10,
+                   formulation=Baumgarte(5, 5), method="DOP853", rtol=1e-10, atol=1e-10,
                    t_eval=ch09.WORK_TIMES, work=True)
     ripple = 0.01 * np.sin(OMEGA * run.t) * run.velocity("phi")
     ripple_work = float(np.sum(0.5 * (ripple[1:] + ripple[:-1]) * np.diff(run.t)))
