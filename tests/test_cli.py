@@ -174,6 +174,8 @@ def test_basin_writes_json_and_png(tmp_path, capsys):
     (["--phi0", "0:2pi:4", "--dphi0=-1:3:5"], "dphi0: START must be >= 0"),
     (["--phi0", "0:x:4", "--dphi0", "0:3:5"], "phi0: expected a number, got 'x'"),
     (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--t-end", "0"], "t_end: must be a finite number > 0 s"),
+    (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--t-end", "0.01"],      # it named the default step, not given
+     "--t-end: 0.01 s is shorter than the default step 0.02 s"),
     (["--phi0", "0:2pi:4", "--dphi0", "0:3:5", "--png", "map.svg"], "png: the figure is written as PNG"),
     (["--phi0", "0:2pi:4"], "the following arguments are required: --dphi0"),
 ])

@@ -67,6 +67,13 @@ def test_map_figure_marks_the_four_cases_where_they_are():
     # a map drawn over [0.7 pi, 1.1 pi] x [0.55, 1.55] rad/s holds only cases 1 and 4
     part = basin_map(grid_values(0.8 * math.pi, 1.2 * math.pi, 2), grid_values(0.8, 1.8, 2), 1.0)
     assert sorted(t.get_text() for t in plot_basin_map(part).axes[0].texts) == ["1", "4"]
+    legend = [t.get_text() for t in plot_basin_map(part).legends[0].get_texts()]
+    assert "the paper's cases, numbered" in legend
+    # a map that holds no case draws no marker, and its legend names none
+    none = basin_map(grid_values(3.0, 3.2, 1), grid_values(1.0, 1.1, 1), 1.0)
+    figure = plot_basin_map(none)
+    assert len(figure.axes[0].texts) == 0 and "the paper's cases, numbered" not in [
+        t.get_text() for t in figure.legends[0].get_texts()]
 
 
 def test_simulating_never_imports_matplotlib_and_a_figure_does():

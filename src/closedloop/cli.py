@@ -363,7 +363,10 @@ def run_basin(args, progress=None):
     if n * m > 1_000_000:
         raise InputError(f"phi0, dphi0: at most 1 000 000 cells, got {n} x {m}")
     t_end = _positive("t_end", args.t_end, unit="s")
-    step = DEFAULT_STEP if args.step is None else _positive("step", args.step, unit="s")   # basin_map: step <= t_end
+    step = DEFAULT_STEP if args.step is None else _positive("step", args.step, unit="s")
+    if args.step is None and step > t_end:          # basin_map would name a step the user never gave
+        raise InputError(f"--t-end: {t_end:g} s is shorter than the default step {DEFAULT_STEP:g} s; give a longer "
+                         "--t-end, or a --step <= --t-end")
     cores = os.cpu_count() or 1
     if args.workers is None:
         workers = cores if n * m >= 1000 else 1

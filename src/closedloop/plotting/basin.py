@@ -46,12 +46,13 @@ def plot_basin_map(basin, title=None, cases=True, ax=None):
         ax.pcolormesh(phi_edges, dphi_edges, basin.outcome, cmap=ListedColormap(colours), vmin=-0.5, vmax=1.5,
                       shading="flat", rasterized=True)
         handles = [Patch(color=colours[code], label=basin.labels[code]) for code in (0, 1)]
-        if cases:
-            for case in CASES.values():
-                if phi_edges[0] <= case.phi0 <= phi_edges[-1] and dphi_edges[0] <= case.dphi0 <= dphi_edges[-1]:
-                    ax.plot(case.phi0, case.dphi0, "o", ms=9, mfc="white", mec="black", mew=1.5)
-                    ax.annotate(f"{case.number}", (case.phi0, case.dphi0), xytext=(7, 5), textcoords="offset points",
-                                fontsize=12, fontweight="bold")
+        inside = [case for case in CASES.values() if cases
+                  and phi_edges[0] <= case.phi0 <= phi_edges[-1] and dphi_edges[0] <= case.dphi0 <= dphi_edges[-1]]
+        for case in inside:
+            ax.plot(case.phi0, case.dphi0, "o", ms=9, mfc="white", mec="black", mew=1.5)
+            ax.annotate(f"{case.number}", (case.phi0, case.dphi0), xytext=(7, 5), textcoords="offset points",
+                        fontsize=12, fontweight="bold")
+        if inside:                                  # the legend names the marker only where one is drawn
             handles.append(ax.plot([], [], "o", ms=9, mfc="white", mec="black", mew=1.5,
                                    label="the paper's cases, numbered")[0])
         ax.grid(False)
