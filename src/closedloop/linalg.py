@@ -110,6 +110,14 @@ def solve_small(A, b):
 CONDITION_LIMIT = 1e10
 
 
+def _top_and_det(a, c, d, e):
+    """``(sigma_max^2, |det A|)`` of ``A = [[a, c], [d, e]]`` in closed form: sigma_1^2 + sigma_2^2 = |A|_F^2
+    and sigma_1 sigma_2 = |det A|, so sigma_min = |det A| / sigma_max."""
+    det = abs(a * e - c * d)
+    frobenius2 = a * a + c * c + d * d + e * e
+    return 0.5 * (frobenius2 + math.sqrt(max(frobenius2 * frobenius2 - 4.0 * det * det, 0.0))), det
+
+
 def condition_number(A):
     """The 2-norm condition number sigma_max / sigma_min of a matrix (``inf`` if singular).
 
@@ -120,14 +128,8 @@ def condition_number(A):
     if A.shape == (1, 1):
         return 1.0 if A[0, 0] != 0.0 else math.inf
     if A.shape == (2, 2):                  # on Python floats, summed in numpy's order: the same numbers
-        (a, c), (d, e) = A.tolist()
-        det = abs(a * e - c * d)
-        frobenius2 = a * a + c * c + d * d + e * e
-        if det == 0.0:
-            return math.inf
-        # sigma_1^2 + sigma_2^2 = |A|_F^2 and sigma_1 sigma_2 = |det A|
-        root = math.sqrt(max(frobenius2 * frobenius2 - 4.0 * det * det, 0.0))
-        return (frobenius2 + root) / (2.0 * det)
+        top, det = _top_and_det(*A.ravel().tolist())
+        return math.inf if det == 0.0 else top / det          # sigma_max / sigma_min = sigma_max^2 / |det A|
     singular_values = np.linalg.svd(A, compute_uv=False)
     return math.inf if singular_values[-1] == 0.0 else float(singular_values[0] / singular_values[-1])
 
@@ -144,16 +146,17 @@ def partition_condition(Phi, z_index):
     singular values otherwise.
     """
     Phi = np.asarray(Phi, dtype=float)
-    Phi_z = Phi[:, z_index]
+    return _partition_condition(Phi, Phi[:, z_index])
+
+
+def _partition_condition(Phi, Phi_z):
+    """:func:`partition_condition` with Phi_z taken out of the float array Phi by the caller."""
     r = Phi_z.shape[0]
     if r == 1:
         smallest = abs(float(Phi_z[0, 0]))
         largest = math.sqrt(sum(v * v for v in Phi[0].tolist()))
-    elif r == 2:                           # sigma_1^2 + sigma_2^2 = |A|_F^2, sigma_1 sigma_2 = |det A|
-        (a, c), (d, e) = Phi_z.tolist()
-        det = abs(a * e - c * d)
-        frobenius2 = a * a + c * c + d * d + e * e
-        top = 0.5 * (frobenius2 + math.sqrt(max(frobenius2 * frobenius2 - 4.0 * det * det, 0.0)))
+    elif r == 2:
+        top, det = _top_and_det(*Phi_z.ravel().tolist())
         smallest = det / math.sqrt(top) if top > 0.0 else 0.0
         first, second = Phi.tolist()       # the larger eigenvalue of the 2 x 2 Gram matrix Phi_s Phi_s^T
         g11, g22 = sum(v * v for v in first), sum(v * v for v in second)
@@ -175,7 +178,7 @@ def orthogonal_complement(Phi, q_index, z_index, t=None):
     :func:`partition_condition` exceeds :data:`CONDITION_LIMIT` (or Phi_z is not finite).
     """
     Phi_q, Phi_z = Phi[:, q_index], Phi[:, z_index]
-    condition = partition_condition(Phi, z_index)
+    condition = _partition_condition(Phi, Phi_z)
     if condition > CONDITION_LIMIT:
         raise SingularConfigurationError(
             f"Phi_z is singular{at_time(t)}: |Phi_s| |Phi_z^-1| = {condition:.3g} > {CONDITION_LIMIT:.0e}, so R of "
