@@ -53,9 +53,13 @@ def test_first_seconds_recomputed_match_the_file(data):
                       atol=settings.rtol, t_eval=grid, work=True)
     stored = data["runs"][formulation.name]
     n = grid.size
-    np.testing.assert_allclose(result.constraint_error, stored["constraint_error"][:n], rtol=1e-5, atol=1e-300)
+    # The drift of the augmented run is the integrator's truncation error, and the step sizes that make it follow
+    # the error estimates continuously: a last-bit difference in a linear solve (OpenBLAS picks its kernels per
+    # processor) moves it by up to 0.2 % between two x86-64 machines with the same wheels. Another formulation,
+    # method or tolerance moves it by a factor.
+    np.testing.assert_allclose(result.constraint_error, stored["constraint_error"][:n], rtol=1e-2, atol=1e-300)
     np.testing.assert_allclose(energy_balance(system, result).residual, stored["balance_residual"][:n],
-                               rtol=1e-5, atol=1e-13)
+                               rtol=1e-2, atol=1e-13)
 
 
 def test_a_short_study_keeps_what_the_chapter_says(tmp_path):
