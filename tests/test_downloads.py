@@ -11,8 +11,9 @@ made by ``book/_ext/ipynb_download.py``) is checked. A download fails on:
   or a sentence of a solution's prose.
 
 A chapter's download is the notebook the book's build executed (the build runs every chapter once,
-and stops on any error): its code cells must be its source's, in order, each run once, top to
-bottom, in one kernel, with no error, and every data file its code names must be linked from its
+and stops on any error): its code cells must be the ones its page shows (the cells tagged
+``remove-cell``, which glue computed values into the prose, are left out, and no cell left calls
+``glue``), in order, each run once, top to bottom, in one kernel, with no error, and every data file its code names must be linked from its
 first cell (the files a reader fetches beside it). Running it again here would repeat the build's run.
 
 An exercise page's download is its student version, which the build does not run: each is copied
@@ -233,10 +234,14 @@ def test_a_chapter_download_is_its_source_as_the_build_ran_it(built, page):
 
     notebook = downloaded(page)
     code = [c for c in notebook.cells if c.cell_type == "code"]
-    source = [c.source for c in jupytext.read(ROOT / f"{page}.md").cells if c.cell_type == "code"]
+    cells = [c for c in jupytext.read(ROOT / f"{page}.md").cells if c.cell_type == "code"]
+    shown = [c.source for c in cells if "remove-cell" not in c.metadata.get("tags", [])]
     assert code, f"{page} has no code cell: every chapter computes what it shows"
-    assert [c.source for c in code] == source, f"{page}: the download's code is not its source's"
-    assert [c.get("execution_count") for c in code] == list(range(1, len(code) + 1)), \
+    assert [c.source for c in code] == shown, f"{page}: the download's code is not the code its page shows"
+    assert not [c.source for c in code if "glue" in c.source or "myst_nb" in c.source], \
+        f"{page}: the download glues values into the prose: the build's business, not the reader's"
+    counts = [c.get("execution_count") for c in code]
+    assert all(counts) and counts == sorted(set(counts)) and counts[-1] <= len(cells), \
         f"{page}: its cells were not run once each, top to bottom, in one kernel"
     errors = [o for c in code for o in c.get("outputs", []) if o.get("output_type") == "error"]
     assert errors == [], f"{page}: {[e['ename'] + ': ' + e['evalue'] for e in errors]}"

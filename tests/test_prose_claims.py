@@ -326,3 +326,29 @@ def test_glue_calls_are_found_as_literals_and_as_f_strings():
             'for n in (1, 2):\n    glue(f"ch07-case{n}-change", x[n], display=False)')
     assert defines(code, "ch07-gap") and defines(code, "ch07-case2-change")
     assert not defines(code, "ch07-case2-other") and not defines(code, "ch07-ga")
+
+
+#: Every page that is a notebook (MyST Markdown with a jupytext header): chapters, exercises, front and back matter.
+PAGES = sorted(page for folder in ("chapters", "exercises", "book") for page in (ROOT / folder).glob("*.md")
+               if page.read_text().startswith("---\njupytext:"))
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_no_cell_the_reader_sees_glues(page):
+    """A value pasted into the prose is glued in a cell tagged ``remove-cell``: the page, the PDF and the
+    download leave it out, so the reader's code holds the physics and never the build's plumbing."""
+    import jupytext
+
+    notebook = jupytext.read(page)
+    seen = [cell.source for cell in notebook.cells if cell.cell_type == "code"
+            and "remove-cell" not in cell.metadata.get("tags", [])]
+    assert not [s for s in seen if re.search(r"\bglue\b|myst_nb", s)], \
+        f"{page.name}: a cell the reader sees calls glue (tag it remove-cell, or move the glue into one that is)"
+
+
+def test_the_glue_detector_sees_a_visible_glue(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text("---\njupytext:\n  text_representation:\n    extension: .md\n    format_name: myst\n---\n\n"
+                    "```{code-cell} ipython3\nfrom myst_nb import glue\nglue('k', 1)\n```\n")
+    with pytest.raises(AssertionError, match="calls glue"):
+        test_no_cell_the_reader_sees_glues(page)

@@ -11,6 +11,8 @@ What a role names (a page's title, an equation's number, a glued value, a citati
 of a :class:`Resolver`; the one here knows nothing of the book and answers with the role's
 own text. The Sphinx extension ``ipynb_download`` passes one that asks the built book.
 
+Code cells tagged ``remove-cell``, which the page does not show (they glue computed values into the
+prose), are dropped: the download holds the code the reader sees, and nothing that needs the build.
 Code cells lose the solution markers of the exercise notebooks (``# BEGIN SOLUTION``,
 ``# END SOLUTION``, ``# STUDENT: ...``), which are for ``exercises/make_student.py`` only.
 """
@@ -345,6 +347,8 @@ def strip_markers(source: str) -> str:
 def convert_notebook(notebook, resolver: Resolver | None = None):
     """``notebook`` (nbformat, changed in place and returned) with plain Markdown and no markers."""
     converter = Converter(resolver)
+    # a cell the page leaves out (the values it glues into the prose) is left out of the download too
+    notebook.cells = [c for c in notebook.cells if "remove-cell" not in c.get("metadata", {}).get("tags", [])]
     for cell in notebook.cells:
         if cell.cell_type == "markdown":
             converter.attachments = {}
