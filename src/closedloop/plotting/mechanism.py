@@ -17,12 +17,12 @@ import re
 
 import numpy as np
 
+from .annotate import (FORCE, GROUND, INK, LINK, NOTE, angle_arc, arrow, centre_of_mass, dimension, joints,
+                       label_at, pivot, scale_bar, symbol_sizes, unit_vector, values_text)
+
 __all__ = ["slider_crank_points", "slider_crank_centres", "draw_slider_crank", "slider_crank_diagram",
            "animate_slider_crank", "four_bar_points", "four_bar_centres", "draw_four_bar",
            "four_bar_diagram", "animate_four_bar"]
-
-#: Colours of the drawings: links, joints' outline, annotations, forces.
-_LINK, _INK, _NOTE, _FORCE, _GROUND = "C0", "0.15", "0.35", "C3", "0.45"
 
 
 # -- geometry: every point from the model's coordinates ------------------------------------------
@@ -115,115 +115,6 @@ def four_bar_centres(s, lengths):
     return np.array([(o + a) / 2, (a + b) / 2, (d + rocker_tip) / 2])
 
 
-# -- drawing pieces ----------------------------------------------------------------------------
-
-def _unit(angle):
-    return np.array([math.cos(angle), math.sin(angle)])
-
-
-def _pivot(ax, point, size, zorder=1):
-    """A fixed pivot: a triangle on a hatched ground line below ``point``."""
-    from matplotlib.patches import Polygon, Rectangle
-
-    x, y = point
-    artists = [ax.add_patch(Polygon([[x, y], [x - 0.6 * size, y - size], [x + 0.6 * size, y - size]],
-                                    closed=True, facecolor="white", edgecolor=_GROUND, lw=1.2, zorder=zorder)),
-               ax.add_patch(Rectangle((x - size, y - 1.35 * size), 2 * size, 0.35 * size, facecolor="none",
-                                      edgecolor=_GROUND, hatch="////", lw=0, zorder=zorder))]
-    artists.append(ax.plot([x - size, x + size], [y - size, y - size], color=_GROUND, lw=1.2, zorder=zorder)[0])
-    return artists
-
-
-def _centre_of_mass(ax, point, gid, size=9, zorder=6):
-    """The centre-of-mass symbol, a circle half filled."""
-    return ax.plot([point[0]], [point[1]], marker="o", ms=size, fillstyle="top", markerfacecolor=_INK,
-                   markerfacecoloralt="white", markeredgecolor=_INK, mew=1.0, ls="none", zorder=zorder,
-                   gid=gid)[0]
-
-
-def _joints(ax, points, size, zorder=5):
-    return ax.plot(points[:, 0], points[:, 1], "o", ms=size, markerfacecolor="white", markeredgecolor=_INK,
-                   mew=1.3, ls="none", zorder=zorder)[0]
-
-
-def _label(ax, point, text, offset, fontsize, color=_INK, ha="center"):
-    """``text`` at ``point`` shifted by ``offset`` points, on a white halo: a line that passes under a name
-    (the arc of psi under C at some crank angles, the extension line of x_C under m3) does not strike it
-    through."""
-    from matplotlib import patheffects
-
-    return ax.annotate(text, xy=tuple(point), xytext=tuple(offset), textcoords="offset points",
-                       ha=ha, va="center", fontsize=fontsize, color=color, zorder=8,
-                       path_effects=[patheffects.withStroke(linewidth=3, foreground="white")])
-
-
-def _dimension(ax, start, end, offset, text, fontsize, text_shift=0.0, color=_NOTE, gid=None):
-    """A dimension line parallel to start-end, ``offset`` [m] to its left, with arrows at both ends;
-    ``gid`` names the arrow (whose ``xy`` is the end, ``xyann`` the start)."""
-    start, end = np.asarray(start, float), np.asarray(end, float)
-    along = end - start
-    normal = np.array([-along[1], along[0]]) / np.hypot(*along)
-    p, q = start + offset * normal, end + offset * normal
-    artists = [ax.annotate("", xy=tuple(q), xytext=tuple(p), zorder=3,
-                           arrowprops=dict(arrowstyle="<|-|>", color=color, lw=0.9, shrinkA=0, shrinkB=0,
-                                           mutation_scale=9), gid=gid),
-               ax.plot(*np.transpose([start, p + 0.25 * offset * normal]), color=color, lw=0.6, zorder=3)[0],
-               ax.plot(*np.transpose([end, q + 0.25 * offset * normal]), color=color, lw=0.6, zorder=3)[0]]
-    middle = (p + q) / 2 + np.sign(offset) * (0.22 + text_shift) * normal * max(1.0, fontsize / 12)
-    artists.append(ax.text(*middle, text, ha="center", va="center", fontsize=fontsize, color=color, zorder=8,
-                           bbox=dict(boxstyle="round,pad=0.1", facecolor="white", edgecolor="none", alpha=0.85)))
-    return artists
-
-
-def _angle(ax, centre, start, stop, radius, text, fontsize, color=_NOTE, reference=None, at=0.5):
-    """An angle's arc from ``start`` to ``stop`` [rad] around ``centre`` (the short way, so a negative
-    angle turns clockwise), an arrow at ``stop``, its symbol beyond the arc, and a dashed reference
-    ray along ``start``."""
-    from matplotlib.patches import Arc
-
-    sweep = math.remainder(stop - start, 2 * math.pi)
-    artists = []
-    if reference:
-        end = np.asarray(centre) + reference * _unit(start)
-        artists.append(ax.plot([centre[0], end[0]], [centre[1], end[1]], ls=(0, (4, 3)), color=color, lw=0.8,
-                               zorder=2)[0])
-    if abs(sweep) > 1e-3:
-        low, high = sorted((start, start + sweep))
-        artists.append(ax.add_patch(Arc(tuple(centre), 2 * radius, 2 * radius, theta1=math.degrees(low),
-                                        theta2=math.degrees(high), color=color, lw=1.0, zorder=3)))
-        tip = np.asarray(centre) + radius * _unit(start + sweep)
-        back = np.asarray(centre) + radius * _unit(start + sweep - math.copysign(min(0.3, 0.5 * abs(sweep)), sweep))
-        artists.append(ax.annotate("", xy=tuple(tip), xytext=tuple(back), zorder=3,
-                                   arrowprops=dict(arrowstyle="-|>", color=color, lw=1.0, shrinkA=0, shrinkB=0,
-                                                   mutation_scale=9)))
-    where = np.asarray(centre) + (1.25 * radius + 0.12 * max(1.0, fontsize / 12)) * _unit(start + at * sweep)
-    artists.append(ax.text(*where, text, ha="center", va="center", fontsize=fontsize, color=color, zorder=8))
-    return artists
-
-
-def _arrow(ax, tail, head, text, fontsize, color, text_at="tail", offset=(0, 0), gid=None):
-    """A force's arrow from ``tail`` to ``head``, named ``gid``, and its label."""
-    artists = [ax.annotate("", xy=tuple(head), xytext=tuple(tail), zorder=7, gid=gid,
-                           arrowprops=dict(arrowstyle="-|>", color=color, lw=2.0, shrinkA=0, shrinkB=0,
-                                           mutation_scale=16))]
-    if text:
-        artists.append(_label(ax, tail if text_at == "tail" else head, text, offset, fontsize, color=color))
-    return artists
-
-
-def _scale_bar(ax, origin, length, fontsize):
-    """A bar of ``length`` metres from ``origin``, labelled with its length."""
-    x, y = origin
-    return [ax.plot([x, x + length], [y, y], color=_INK, lw=3, solid_capstyle="butt", zorder=8)[0],
-            ax.text(x + length / 2, y, f"{length:g} m", ha="center", va="bottom", fontsize=fontsize,
-                    color=_INK, zorder=8)]
-
-
-def _sizes(reach):
-    """Joint marker, slider half-size and pivot size, scaled with the mechanism's reach [m]."""
-    return {"half_width": 0.055 * reach, "half_height": 0.04 * reach, "pivot": 0.045 * reach}
-
-
 # -- the slider-crank --------------------------------------------------------------------------
 
 def _slider_crank_frame(ax, parameters, fontsize=12, guide=True):
@@ -231,20 +122,20 @@ def _slider_crank_frame(ax, parameters, fontsize=12, guide=True):
     from matplotlib.patches import Rectangle
 
     reach = parameters.l1 + parameters.l2
-    size = _sizes(reach)
-    artists = _pivot(ax, (0.0, 0.0), size["pivot"], zorder=1)
+    size = symbol_sizes(reach)
+    artists = pivot(ax, (0.0, 0.0), size["pivot"], zorder=1)
     if guide:                                            # one rail under the slider, over its stroke
         low = abs(parameters.l2 - parameters.l1) - 1.3 * size["half_width"]
         high = reach + 1.3 * size["half_width"]
         y = -size["half_height"]
-        artists.append(ax.plot([low, high], [y, y], color=_GROUND, lw=1.2, zorder=1)[0])
+        artists.append(ax.plot([low, high], [y, y], color=GROUND, lw=1.2, zorder=1)[0])
         artists.append(ax.add_patch(Rectangle((low, y - 0.5 * size["half_height"]), high - low,
-                                              0.5 * size["half_height"], facecolor="none", edgecolor=_GROUND,
+                                              0.5 * size["half_height"], facecolor="none", edgecolor=GROUND,
                                               hatch="////", lw=0, zorder=1)))
     return artists
 
 
-def draw_slider_crank(ax, s, parameters, color=_LINK, label=None, labels="none", force_sign=None,
+def draw_slider_crank(ax, s, parameters, color=LINK, label=None, labels="none", force_sign=None,
                       fontsize=12):
     """Draw the slider-crank at state s on the axes ``ax``: crank OA, rod AC and slider C.
 
@@ -286,77 +177,70 @@ def draw_slider_crank(ax, s, parameters, color=_LINK, label=None, labels="none",
     c1, c2 = slider_crank_centres(s, p)
     phi, psi = float(s[0]), float(s[1])
     reach = p.l1 + p.l2
-    size = _sizes(reach)
+    size = symbol_sizes(reach)
     w, h = size["half_width"], size["half_height"]
-    artists = [ax.add_patch(Rectangle((c[0] - w, -h), 2 * w, 2 * h, facecolor=color, alpha=0.35, edgecolor=_INK,
+    artists = [ax.add_patch(Rectangle((c[0] - w, -h), 2 * w, 2 * h, facecolor=color, alpha=0.35, edgecolor=INK,
                                       lw=1.2, zorder=4, gid="slider"))]
     artists.append(ax.plot([o[0], a[0], c[0]], [o[1], a[1], c[1]], "-", color=color, lw=4,
                            solid_capstyle="round", label=label, zorder=4, gid="links")[0])
-    artists.append(_joints(ax, np.array([o, a, c]), 7))
+    artists.append(joints(ax, np.array([o, a, c]), 7))
     if labels == "none":
         return artists
     away = 14 * max(1.0, fontsize / 12)                              # points between a joint and its name
-    outward_a = _unit(math.atan2(a[1] - 0.5 * c[1], a[0] - 0.5 * c[0]))
-    artists.append(_label(ax, o, "$O$", (away, -0.8 * away), fontsize))
-    artists.append(_label(ax, a, "$A$", tuple(away * outward_a), fontsize))
-    artists.append(_label(ax, c, "$C$", (0.5 * away, 1.1 * away), fontsize))
+    outward_a = unit_vector(math.atan2(a[1] - 0.5 * c[1], a[0] - 0.5 * c[0]))
+    artists.append(label_at(ax, o, "$O$", (away, -0.8 * away), fontsize))
+    artists.append(label_at(ax, a, "$A$", tuple(away * outward_a), fontsize))
+    artists.append(label_at(ax, c, "$C$", (0.5 * away, 1.1 * away), fontsize))
     note = fontsize * (0.85 if labels == "light" else 1.0)
-    artists += _angle(ax, o, 0.0, phi, 0.22 * p.l1, r"$\varphi$", note)
-    artists += _angle(ax, c, 0.0, psi, 0.12 * p.l2, r"$\psi$", note,
+    artists += angle_arc(ax, o, 0.0, phi, 0.22 * p.l1, r"$\varphi$", note)
+    artists += angle_arc(ax, c, 0.0, psi, 0.12 * p.l2, r"$\psi$", note,
                       reference=0.14 * p.l2 if labels == "full" else None, at=0.8)
     if labels == "light":
         return artists
 
     # lengths and centres of mass: l1 on the crank's left, a2 and l2 above the rod
     above = float(np.sign(c[0] - a[0]) or 1.0)
-    artists += _dimension(ax, o, a, 0.2 * p.l1, "$l_1$", fontsize)
-    artists += _dimension(ax, a, c, 0.15 * p.l2 * above, "$l_2$", fontsize)
-    artists += _dimension(ax, a, c2, 0.05 * p.l2 * above, "$a_2$", fontsize, text_shift=-0.05) \
-        if p.a2 > 0 else [_label(ax, a, "$a_2 = 0$", (away, -away), fontsize)]
+    artists += dimension(ax, o, a, 0.2 * p.l1, "$l_1$", fontsize)
+    artists += dimension(ax, a, c, 0.15 * p.l2 * above, "$l_2$", fontsize)
+    artists += dimension(ax, a, c2, 0.05 * p.l2 * above, "$a_2$", fontsize, text_shift=-0.05) \
+        if p.a2 > 0 else [label_at(ax, a, "$a_2 = 0$", (away, -away), fontsize)]
     if p.a1 > 0:
-        artists += _dimension(ax, o, c1, -0.2 * p.l1, "$a_1$", fontsize)
+        artists += dimension(ax, o, c1, -0.2 * p.l1, "$a_1$", fontsize)
     else:
-        artists.append(_label(ax, o, "$C_1$ at $O$ ($a_1 = 0$)\n$m_1,\\ I_1$", (-1.2 * away, -3.0 * away),
+        artists.append(label_at(ax, o, "$C_1$ at $O$ ($a_1 = 0$)\n$m_1,\\ I_1$", (-1.2 * away, -3.0 * away),
                               fontsize, ha="right"))
-    artists.append(_centre_of_mass(ax, c1, "C1"))
-    artists.append(_centre_of_mass(ax, c2, "C2"))
-    rod_normal = _unit(psi + math.pi / 2)
-    artists.append(_label(ax, c2, "$C_2$\n$m_2,\\ I_2$", tuple(-2.0 * away * rod_normal * np.sign(rod_normal[1] or 1)),
+    artists.append(centre_of_mass(ax, c1, "C1"))
+    artists.append(centre_of_mass(ax, c2, "C2"))
+    rod_normal = unit_vector(psi + math.pi / 2)
+    artists.append(label_at(ax, c2, "$C_2$\n$m_2,\\ I_2$", tuple(-2.0 * away * rod_normal * np.sign(rod_normal[1] or 1)),
                           fontsize))
     if p.a1 > 0:
-        artists.append(_label(ax, c1, "$C_1$\n$m_1,\\ I_1$", (1.6 * away, -1.6 * away), fontsize))
-    artists.append(_label(ax, c, "$m_3$", (0, -2.3 * away), fontsize))
+        artists.append(label_at(ax, c1, "$C_1$\n$m_1,\\ I_1$", (1.6 * away, -1.6 * away), fontsize))
+    artists.append(label_at(ax, c, "$m_3$", (0, -2.3 * away), fontsize))
     # the slider's coordinate x_C, measured along the guide from O
-    artists += _dimension(ax, o, c, -(2.6 * h + 0.08 * reach), "$x_C$", fontsize, gid="x_C")
+    artists += dimension(ax, o, c, -(2.6 * h + 0.08 * reach), "$x_C$", fontsize, gid="x_C")
     # the drive torque M on the crank, positive with phi, drawn behind the crank
     r = 0.2 * p.l1
-    artists.append(ax.annotate("", xy=tuple(r * _unit(phi + 4.0)), xytext=tuple(r * _unit(phi + 2.3)), gid="M",
+    artists.append(ax.annotate("", xy=tuple(r * unit_vector(phi + 4.0)), xytext=tuple(r * unit_vector(phi + 2.3)), gid="M",
                                zorder=7,
-                               arrowprops=dict(arrowstyle="-|>", color=_FORCE, lw=1.6, mutation_scale=12,
+                               arrowprops=dict(arrowstyle="-|>", color=FORCE, lw=1.6, mutation_scale=12,
                                                connectionstyle="arc3,rad=0.45", shrinkA=0, shrinkB=0)))
-    artists.append(_label(ax, r * _unit(phi + 2.3), "$M$", (-0.9 * away, 0.2 * away), fontsize, color=_FORCE))
+    artists.append(label_at(ax, r * unit_vector(phi + 2.3), "$M$", (-0.9 * away, 0.2 * away), fontsize, color=FORCE))
     # the gas force F on the slider, while the slider moves out
     direction = -(1 if force_sign is None else int(np.sign(force_sign)))        # -1: towards O
     edge = c[0] - direction * w                                                  # the face it pushes
     y = -0.45 * h
     tail = np.array([edge - direction * 0.14 * reach, y])
-    artists += _arrow(ax, tail, (edge, y), r"$F$ (while $\dot x_C > 0$)", fontsize, _FORCE, text_at="tail",
+    artists += arrow(ax, tail, (edge, y), r"$F$ (while $\dot x_C > 0$)", fontsize, FORCE, text_at="tail",
                       offset=(-direction * 0.5 * away, 1.5 * away), gid="F")
     # gravity, down the y axis
     top = max(a[1], 0.0) + 0.1 * reach
     corner = np.array([reach + 0.05 * reach, top])
-    artists += _arrow(ax, corner, corner - np.array([0.0, 0.16 * reach]), "$g$", fontsize, _INK, text_at="head",
+    artists += arrow(ax, corner, corner - np.array([0.0, 0.16 * reach]), "$g$", fontsize, INK, text_at="head",
                       offset=(away, 0.6 * away), gid="g")
     # the x axis, along the guide
-    artists.append(_label(ax, (reach + 1.3 * w, -h), "$x$", (0.8 * away, 0), fontsize, color=_NOTE))
+    artists.append(label_at(ax, (reach + 1.3 * w, -h), "$x$", (0.8 * away, 0), fontsize, color=NOTE))
     return artists
-
-
-def _values_text(values, units):
-    """'name = value unit' for each symbol, in the order of ``units``."""
-    names = {"l0": "l_0", "l1": "l_1", "l2": "l_2", "l3": "l_3", "a1": "a_1", "a2": "a_2", "m1": "m_1",
-             "m2": "m_2", "m3": "m_3", "I1": "I_1", "I2": "I_2", "g": "g"}
-    return [f"${names[key]}$ = {values[key]:g} {unit}" for key, unit in units.items()]
 
 
 def slider_crank_diagram(system=None, phi=0.9, fontsize=12, values=True):
@@ -404,10 +288,10 @@ def slider_crank_diagram(system=None, phi=0.9, fontsize=12, values=True):
     if values:
         units = {"l1": "m", "a1": "m", "m1": "kg", "I1": "kg m²", "l2": "m", "a2": "m", "m2": "kg",
                  "I2": "kg m²", "m3": "kg", "g": "m/s²"}
-        items = _values_text(p.as_dict(), units)
+        items = values_text(p.as_dict(), units)
         fig.text(0.5, 0.01, "crank: " + ", ".join(items[:4]) + "\nrod: " + ", ".join(items[4:8])
                  + "\nslider: " + items[8] + ";  " + items[9], ha="center", va="bottom", fontsize=fontsize * 0.85,
-                 color=_INK, linespacing=1.5)
+                 color=INK, linespacing=1.5)
         fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))
     return fig
 
@@ -451,7 +335,7 @@ def animate_slider_crank(result, parameters, fps=15, speed=None, title=None, fra
         ax.set_xlim(-p.l1 - 0.1 * reach, reach + 0.12 * reach)
         ax.set_ylim(-p.l1 - 0.08 * reach, p.l1 + 0.08 * reach)
         _slider_crank_frame(ax, p)
-        return _scale_bar(ax, (-p.l1 - 0.05 * reach, -p.l1 - 0.03 * reach), 1.0, 10)
+        return scale_bar(ax, (-p.l1 - 0.05 * reach, -p.l1 - 0.03 * reach), 1.0, 10)
 
     def draw(ax, s):
         return draw_slider_crank(ax, s, p, labels="light", fontsize=11)
@@ -464,11 +348,11 @@ def animate_slider_crank(result, parameters, fps=15, speed=None, title=None, fra
 # -- the four-bar ------------------------------------------------------------------------------
 
 def _four_bar_frame(ax, lengths, reach):
-    size = _sizes(reach)
-    return _pivot(ax, (0.0, 0.0), size["pivot"]) + _pivot(ax, (lengths["l0"], 0.0), size["pivot"])
+    size = symbol_sizes(reach)
+    return pivot(ax, (0.0, 0.0), size["pivot"]) + pivot(ax, (lengths["l0"], 0.0), size["pivot"])
 
 
-def draw_four_bar(ax, s, lengths, color=_LINK, label=None, labels="none", fontsize=12):
+def draw_four_bar(ax, s, lengths, color=LINK, label=None, labels="none", fontsize=12):
     """Draw the four-bar at state s on ``ax``: crank OA, coupler AB, rocker DB, pivots O and D.
 
     Positions from :func:`four_bar_points` and :func:`four_bar_centres` (the model of
@@ -501,37 +385,37 @@ def draw_four_bar(ax, s, lengths, color=_LINK, label=None, labels="none", fontsi
     reach = l0 + max(l1, l3)
     artists = [ax.plot([o[0], a[0], b[0], d[0]], [o[1], a[1], b[1], d[1]], "-", color=color, lw=4,
                        solid_capstyle="round", label=label, zorder=4, gid="links")[0]]
-    artists.append(_joints(ax, np.array([o, a, b, d]), 7))
+    artists.append(joints(ax, np.array([o, a, b, d]), 7))
     if labels == "none":
         return artists
     away = 14 * max(1.0, fontsize / 12)
     middle = (o + d) / 2 + np.array([0.0, 0.25 * max(l1, l3)])
     for point, name in ((a, "$A$"), (b, "$B$")):
         out = point - middle
-        artists.append(_label(ax, point, name, tuple(away * out / (np.hypot(*out) or 1.0)), fontsize))
-    artists.append(_label(ax, o, "$O$", (away, -0.8 * away), fontsize))
-    artists.append(_label(ax, d, "$D$", (-away, -0.8 * away), fontsize))
+        artists.append(label_at(ax, point, name, tuple(away * out / (np.hypot(*out) or 1.0)), fontsize))
+    artists.append(label_at(ax, o, "$O$", (away, -0.8 * away), fontsize))
+    artists.append(label_at(ax, d, "$D$", (-away, -0.8 * away), fontsize))
     note = fontsize * (0.85 if labels == "light" else 1.0)
-    artists += _angle(ax, o, 0.0, theta1, 0.25 * l1, r"$\theta_1$", note)
+    artists += angle_arc(ax, o, 0.0, theta1, 0.25 * l1, r"$\theta_1$", note)
     if labels == "light":
         return artists
-    artists += _angle(ax, d, 0.0, theta3, 0.25 * l3, r"$\theta_3$", fontsize, reference=0.6 * l3)
+    artists += angle_arc(ax, d, 0.0, theta3, 0.25 * l3, r"$\theta_3$", fontsize, reference=0.6 * l3)
     if abs(math.remainder(theta2, 2 * math.pi)) > 0.05:
-        artists += _angle(ax, a, 0.0, theta2, 0.15 * l2, r"$\theta_2$", fontsize, reference=0.3 * l2)
+        artists += angle_arc(ax, a, 0.0, theta2, 0.15 * l2, r"$\theta_2$", fontsize, reference=0.3 * l2)
     else:                                                    # the coupler lies along the x axis
-        artists += _angle(ax, a, 0.0, 0.0, 0.12 * l2, r"$\theta_2 = 0$", fontsize * 0.9, reference=0.3 * l2)
+        artists += angle_arc(ax, a, 0.0, 0.0, 0.12 * l2, r"$\theta_2 = 0$", fontsize * 0.9, reference=0.3 * l2)
         artists[-1].set_position(tuple(a + np.array([0.2 * l2, -0.09 * l2])))
-    artists += _dimension(ax, o, d, -0.12 * reach, "$l_0$", fontsize)
-    artists += _dimension(ax, o, a, 0.22 * l1, "$l_1$", fontsize)
-    artists += _dimension(ax, a, b, 0.1 * l2 * (1 if math.cos(theta2) >= 0 else -1), "$l_2$", fontsize)
-    artists += _dimension(ax, d, b, -0.3 * l3 * (1 if math.cos(theta3) >= 0 else -1), "$l_3$", fontsize)
+    artists += dimension(ax, o, d, -0.12 * reach, "$l_0$", fontsize)
+    artists += dimension(ax, o, a, 0.22 * l1, "$l_1$", fontsize)
+    artists += dimension(ax, a, b, 0.1 * l2 * (1 if math.cos(theta2) >= 0 else -1), "$l_2$", fontsize)
+    artists += dimension(ax, d, b, -0.3 * l3 * (1 if math.cos(theta3) >= 0 else -1), "$l_3$", fontsize)
     for k, centre in enumerate(four_bar_centres(s, lengths), start=1):
-        artists.append(_centre_of_mass(ax, centre, f"C{k}"))
+        artists.append(centre_of_mass(ax, centre, f"C{k}"))
         side = {1: 1, 2: 1, 3: -1}[k]                       # towards the inside of the loop
-        artists.append(_label(ax, centre, f"$C_{k}$, $m_{k}$", (side * 2.6 * away, {1: 0.6, 2: -0.9, 3: 0.6}[k] * away),
+        artists.append(label_at(ax, centre, f"$C_{k}$, $m_{k}$", (side * 2.6 * away, {1: 0.6, 2: -0.9, 3: 0.6}[k] * away),
                               fontsize))
     corner = np.array([max(b[0], l0) + 0.2 * reach, max(a[1], b[1], 0.0)])
-    artists += _arrow(ax, corner, corner - np.array([0.0, 0.12 * reach]), "$g$", fontsize, _INK, text_at="head",
+    artists += arrow(ax, corner, corner - np.array([0.0, 0.12 * reach]), "$g$", fontsize, INK, text_at="head",
                       offset=(away, 0.6 * away), gid="g")
     return artists
 
@@ -582,9 +466,9 @@ def four_bar_diagram(system, theta1=1.1, z_guess=None, fontsize=12, values=True)
     ax.set_axis_off()
     if values:
         units = {"l0": "m", "l1": "m", "l2": "m", "l3": "m", "m1": "kg", "m2": "kg", "m3": "kg", "g": "m/s²"}
-        items = _values_text(values_, units)
+        items = values_text(values_, units)
         fig.text(0.5, 0.01, ", ".join(items[:4]) + "\n" + ", ".join(items[4:]), ha="center", va="bottom",
-                 fontsize=fontsize * 0.85, color=_INK, linespacing=1.5)
+                 fontsize=fontsize * 0.85, color=INK, linespacing=1.5)
         fig.get_layout_engine().set(rect=(0, 0.12, 1, 0.88))
     return fig
 
@@ -614,7 +498,7 @@ def animate_four_bar(result, lengths, fps=15, speed=None, title=None, frames=Non
         ax.set_xlim(-1.15 * arm, l0 + 1.15 * arm)
         ax.set_ylim(-1.2 * arm, 1.2 * arm)
         _four_bar_frame(ax, lengths, reach)
-        return _scale_bar(ax, (-1.0 * arm, -1.05 * arm), 1.0 if reach > 2.5 else 0.1, 10)
+        return scale_bar(ax, (-1.0 * arm, -1.05 * arm), 1.0 if reach > 2.5 else 0.1, 10)
 
     def draw(ax, s):
         return draw_four_bar(ax, s, lengths, labels="light", fontsize=11)
@@ -686,10 +570,10 @@ def _animate(result, setup, draw, size, fps, speed, frames, title, dpi, alt):
     ax.set_axis_off()
     setup(ax)
     if title:
-        fig.text(0.015, 0.98, title, ha="left", va="top", fontsize=12, color=_INK, weight="bold")
+        fig.text(0.015, 0.98, title, ha="left", va="top", fontsize=12, color=INK, weight="bold")
     pace = "" if speed == 1 else f", played at {speed:.2g}x real time"
     stamp = fig.text(0.015, 0.98 - (1.15 * line if title else 0.0), "", ha="left", va="top", fontsize=11,
-                     color=_INK)
+                     color=INK)
 
     frames_png = []
     moving = []
