@@ -14,8 +14,8 @@ import pytest
 
 from closedloop import System, simulate
 from closedloop.four_bar import four_bar_model
-from closedloop.plotting.mechanism import (animate_four_bar, animate_slider_crank, four_bar_diagram, playback,
-                                           slider_crank_diagram)
+from closedloop.plotting import animate_four_bar, animate_slider_crank, four_bar_diagram, slider_crank_diagram
+from closedloop.plotting.animation import playback
 from closedloop.slider_crank import CASES, SliderCrankParameters, initial_state, slider_crank_system
 
 from .conftest import PARALLELOGRAM

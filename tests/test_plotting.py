@@ -82,9 +82,10 @@ def test_simulating_never_imports_matplotlib_and_a_figure_does():
     import sys
 
     script = (
-        "import sys\n"
-        "import closedloop.plotting, closedloop.plotting.basin, closedloop.plotting.benchmark\n"
-        "import closedloop.plotting.cases, closedloop.plotting.mechanism\n"
+        "import importlib, pkgutil, sys\n"
+        "import closedloop.plotting\n"
+        "for module in pkgutil.iter_modules(closedloop.plotting.__path__):\n"
+        "    importlib.import_module('closedloop.plotting.' + module.name)\n"
         "from closedloop import simulate\n"
         "from closedloop.slider_crank import initial_state, slider_crank_system\n"
         "system = slider_crank_system()\n"
