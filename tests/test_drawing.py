@@ -1,7 +1,8 @@
 """The labelled drawings of the mechanisms and their animations.
 
 The drawings must sit where the model puts the bodies (checked against closed-form geometry that
-does not use the library's Newton solver), mark every symbol of Table 1 and of the coordinates,
+does not use the library's Newton solver, against the constraints along a run, and against the
+energies that the centres of mass enter), mark every symbol of Table 1 and of the coordinates,
 follow a change of length, and point the gas force as the reading makes it act.  The animations
 must play at least 15 frames per second over the whole run, with alt text, offline.
 """
@@ -13,10 +14,13 @@ import numpy as np
 import pytest
 
 from closedloop import System, simulate
-from closedloop.four_bar import four_bar_model
-from closedloop.plotting import animate_four_bar, animate_slider_crank, four_bar_diagram, slider_crank_diagram
+from closedloop.four_bar import four_bar_model, parameter_values
+from closedloop.four_bar import points as four_bar_named_points
+from closedloop.plotting import (animate_four_bar, animate_slider_crank, four_bar_centres, four_bar_diagram,
+                                 four_bar_points, slider_crank_centres, slider_crank_diagram, slider_crank_points)
 from closedloop.plotting.animation import playback
 from closedloop.slider_crank import CASES, SliderCrankParameters, initial_state, slider_crank_system
+from closedloop.slider_crank import points as slider_crank_named_points
 
 from .conftest import PARALLELOGRAM
 
@@ -106,6 +110,81 @@ def test_four_bar_drawing_closes_the_loop_and_marks_every_symbol():
     wider = four_bar_diagram(System(four_bar_model(), dict(PARALLELOGRAM, l0=3.2)), theta1=1.1)
     assert named(wider, "links").get_xydata()[3] == pytest.approx([3.2, 0.0])
     assert "$l_0$ = 3.2 m" in " ".join(texts(wider))
+
+
+# -- the positions have one home: the mechanism's points, which the model's equations use too -----
+
+#: A slider-crank whose crank's centre of mass lies off the pivot (Table 1 puts it at O, a1 = 0).
+OFFSET_CRANK = SliderCrankParameters(l1=1.5, a1=0.4, l2=4.0, a2=1.1)
+
+
+def directional_derivative(function, s, direction, h=1e-6):
+    """d/dt function(s + t direction) at t = 0, by central differences (error ~ h^2)."""
+    return (function(s + h * direction) - function(s - h * direction)) / (2 * h)
+
+
+def test_the_drawn_joints_satisfy_the_constraints_along_a_run(slider_crank, parallelogram, parallelogram_swing):
+    """Each frame of an animation draws the run's state: its links have their lengths as far as the state
+    satisfies f(s) = 0 (the triangle inequality: | |AC| - l2 | <= |f|), and the slider stays on its guide."""
+    case = CASES[2]
+    run = simulate(slider_crank, initial_state(slider_crank, case.phi0, case.dphi0), 2.0, t_eval=np.linspace(0, 2, 101))
+    p = slider_crank.parameters
+    for s in run.s.T:
+        o, a, c = slider_crank_points(s, p)
+        residual = np.linalg.norm(slider_crank.constraints(s))
+        assert residual < 1e-6
+        assert np.array_equal(o, [0.0, 0.0]) and c[1] == 0.0 and c[0] == s[2]
+        assert abs(np.linalg.norm(a - o) - p.l1) < 1e-12
+        assert abs(np.linalg.norm(c - a) - p.l2) <= residual + 1e-12
+    _, swing = parallelogram_swing
+    lengths = parameter_values(parallelogram)
+    for s in swing.s.T[::10]:
+        o, a, b, d = four_bar_points(s, lengths)
+        residual = np.linalg.norm(parallelogram.constraints(s))
+        assert residual < 1e-6 and np.array_equal(o, [0.0, 0.0]) and np.array_equal(d, [lengths["l0"], 0.0])
+        assert abs(np.linalg.norm(a - o) - lengths["l1"]) < 1e-12
+        assert abs(np.linalg.norm(b - a) - lengths["l2"]) < 1e-12
+        assert abs(np.linalg.norm(b - d) - lengths["l3"]) <= residual + 1e-12
+
+
+def test_the_model_s_constraints_close_the_loop_of_the_points(parallelogram):
+    """Off the loop too (any s), f(s) is the gap between the two ends that the loop joins."""
+    system = slider_crank_system(OFFSET_CRANK)
+    rng = np.random.default_rng(35)
+    for s in rng.uniform(-4.0, 4.0, (20, 3)):
+        at = slider_crank_named_points(s, OFFSET_CRANK.as_dict())
+        assert np.allclose(system.constraints(s), np.subtract(at["rod end"], at["C"]), rtol=0, atol=1e-14)
+        at = four_bar_named_points(s, parameter_values(parallelogram))
+        assert np.allclose(parallelogram.constraints(s), np.subtract(at["B"], at["rocker end"]), rtol=0, atol=1e-14)
+
+
+def test_the_drawn_centres_are_those_of_the_energies():
+    """T and Pi of the model, against the same energies summed over the drawn centres of mass: m g y for Pi,
+    m |v|^2 / 2 + I omega^2 / 2 for T with v the centre's velocity (differentiated numerically), so that
+    the kinetic energy (5.a) as printed, typed apart from the points, checks them too."""
+    system = slider_crank_system(OFFSET_CRANK)
+    p = OFFSET_CRANK
+    rng = np.random.default_rng(36)
+    for s, sd in zip(rng.uniform(-4.0, 4.0, (20, 3)), rng.uniform(-3.0, 3.0, (20, 3))):
+        T, Pi = system.kinetic_and_potential_energy(s, sd)
+        c1, c2 = slider_crank_centres(s, p)
+        c = slider_crank_points(s, p)[2]
+        v1, v2 = directional_derivative(lambda q: slider_crank_centres(q, p), s, sd)
+        vc = directional_derivative(lambda q: slider_crank_points(q, p)[2], s, sd)
+        assert p.a1 > 0 and np.linalg.norm(c1) == pytest.approx(p.a1)
+        assert Pi == pytest.approx(p.g * (p.m1 * c1[1] + p.m2 * c2[1] + p.m3 * c[1]), rel=1e-12, abs=1e-9)
+        assert T == pytest.approx(0.5 * (p.m1 * v1 @ v1 + p.I1 * sd[0]**2 + p.m2 * v2 @ v2 + p.I2 * sd[1]**2
+                                         + p.m3 * vc @ vc), rel=1e-8)
+    values = dict(PARALLELOGRAM, l0=3.2, l2=2.5, m1=1.5, m2=2.0, m3=0.7)
+    four = System(four_bar_model, values)
+    masses = np.array([values["m1"], values["m2"], values["m3"]])
+    inertias = masses * np.array([values["l1"], values["l2"], values["l3"]]) ** 2 / 12      # uniform bars
+    for s, sd in zip(rng.uniform(-4.0, 4.0, (20, 3)), rng.uniform(-3.0, 3.0, (20, 3))):
+        T, Pi = four.kinetic_and_potential_energy(s, sd)
+        centres = four_bar_centres(s, values)
+        velocities = directional_derivative(lambda q: four_bar_centres(q, values), s, sd)
+        assert Pi == pytest.approx(values["g"] * masses @ centres[:, 1], rel=1e-12, abs=1e-9)
+        assert T == pytest.approx(0.5 * (masses @ np.sum(velocities**2, axis=1) + inertias @ sd**2), rel=1e-8)
 
 
 def test_playback_is_at_least_15_frames_a_second():

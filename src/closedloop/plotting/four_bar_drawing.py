@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from ..four_bar import points
 from .animation import animate
 from .annotate import (INK, LINK, angle_arc, arrow, centre_of_mass, dimension, joints, label_at, pivot,
                        scale_bar, symbol_sizes, values_text)
@@ -17,12 +18,12 @@ __all__ = ["four_bar_points", "four_bar_centres", "draw_four_bar", "four_bar_dia
 
 
 def four_bar_points(s, lengths):
-    """Joints O, A, B, D of the four-bar of :func:`closedloop.four_bar.four_bar_model`.
+    """The joints O, A, B, D of the four-bar at ``s``, as placed by :func:`closedloop.four_bar.points`.
 
     Parameters
     ----------
     s : array_like
-        ``[theta1, theta2, theta3]``.
+        ``[theta1, theta2, theta3]`` [rad].
     lengths : mapping
         Values of ``l0, l1, l2, l3`` [m] (more keys are ignored), e.g.
         :func:`closedloop.four_bar.parameter_values` of the system.
@@ -30,39 +31,39 @@ def four_bar_points(s, lengths):
     Returns
     -------
     ndarray, shape (4, 2)
-        O = (0, 0), A = l1 (cos theta1, sin theta1), B = A + l2 (cos theta2, sin theta2), D = (l0, 0).
+        The rows O, A, B (the coupler's end), D.
     """
-
-    theta1, theta2 = s[0], s[1]
-    a = lengths["l1"] * np.array([np.cos(theta1), np.sin(theta1)])
-    b = a + lengths["l2"] * np.array([np.cos(theta2), np.sin(theta2)])
-    return np.array([[0.0, 0.0], a, b, [lengths["l0"], 0.0]])
+    return _named(s, lengths, ("O", "A", "B", "D"))
 
 
 def four_bar_centres(s, lengths):
-    """Centres of mass C1, C2, C3 of the three uniform bars: the midpoints of OA, AB and DB.
+    """The centres of mass C1, C2, C3 of the three bars at ``s``, those of the model's energies.
 
     Parameters
     ----------
     s : array_like
-        ``[theta1, theta2, theta3]``.
+        ``[theta1, theta2, theta3]`` [rad].
     lengths : mapping
         Values of ``l0, l1, l2, l3`` [m].
 
     Returns
     -------
     ndarray, shape (3, 2)
+        The rows C1, C2, C3 of :func:`closedloop.four_bar.points`.
     """
+    return _named(s, lengths, ("C1", "C2", "C3"))
 
-    theta3 = s[2]
-    o, a, b, d = four_bar_points(s, lengths)
-    rocker_tip = d + lengths["l3"] * np.array([np.cos(theta3), np.sin(theta3)])   # = B on the loop
-    return np.array([(o + a) / 2, (a + b) / 2, (d + rocker_tip) / 2])
+
+def _named(s, lengths, names):
+    at = points(s, lengths)
+    return np.array([at[name] for name in names], dtype=float)
 
 
 def _four_bar_frame(ax, lengths, reach):
+    """The still parts: the pivots at O and D."""
     size = symbol_sizes(reach)
-    return pivot(ax, (0.0, 0.0), size["pivot"]) + pivot(ax, (lengths["l0"], 0.0), size["pivot"])
+    o, d = _named((0.0, 0.0, 0.0), lengths, ("O", "D"))
+    return pivot(ax, o, size["pivot"]) + pivot(ax, d, size["pivot"])
 
 
 def draw_four_bar(ax, s, lengths, color=LINK, label=None, labels="none", fontsize=12):
@@ -92,7 +93,7 @@ def draw_four_bar(ax, s, lengths, color=LINK, label=None, labels="none", fontsiz
     """
     if labels not in ("none", "light", "full"):
         raise ValueError(f"labels: must be 'none', 'light' or 'full', got {labels!r}")
-    o, a, b, d = four_bar_points(s, lengths)
+    o, a, b, d, *centres = _named(s, lengths, ("O", "A", "B", "D", "C1", "C2", "C3"))
     theta1, theta2, theta3 = (float(v) for v in s[:3])
     l0, l1, l2, l3 = (lengths[k] for k in ("l0", "l1", "l2", "l3"))
     reach = l0 + max(l1, l3)
@@ -122,7 +123,7 @@ def draw_four_bar(ax, s, lengths, color=LINK, label=None, labels="none", fontsiz
     artists += dimension(ax, o, a, 0.22 * l1, "$l_1$", fontsize)
     artists += dimension(ax, a, b, 0.1 * l2 * (1 if math.cos(theta2) >= 0 else -1), "$l_2$", fontsize)
     artists += dimension(ax, d, b, -0.3 * l3 * (1 if math.cos(theta3) >= 0 else -1), "$l_3$", fontsize)
-    for k, centre in enumerate(four_bar_centres(s, lengths), start=1):
+    for k, centre in enumerate(centres, start=1):
         artists.append(centre_of_mass(ax, centre, f"C{k}"))
         side = {1: 1, 2: 1, 3: -1}[k]                       # towards the inside of the loop
         artists.append(label_at(ax, centre, f"$C_{k}$, $m_{k}$", (side * 2.6 * away, {1: 0.6, 2: -0.9, 3: 0.6}[k] * away),

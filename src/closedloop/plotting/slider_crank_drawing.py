@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from ..slider_crank import points
 from .animation import animate
 from .annotate import (FORCE, GROUND, INK, LINK, NOTE, angle_arc, arrow, centre_of_mass, dimension, joints,
                        label_at, pivot, scale_bar, symbol_sizes, unit_vector, values_text)
@@ -18,9 +19,7 @@ __all__ = ["slider_crank_points", "slider_crank_centres", "draw_slider_crank", "
 
 
 def slider_crank_points(s, parameters):
-    """Joint positions O, A (crank pin) and C (slider) for a state s = [phi, psi, x_C].
-
-    A = l1 (cos phi, sin phi) and C = (x_C, 0); by (27)-(28), C = A - l2 (cos psi, sin psi).
+    """The joints O, A (crank pin) and C (slider) at ``s``, as placed by :func:`closedloop.slider_crank.points`.
 
     Parameters
     ----------
@@ -31,34 +30,31 @@ def slider_crank_points(s, parameters):
     Returns
     -------
     ndarray, shape (3, 2)
+        The rows O, A, C.
     """
-
-    phi, _, x = s[0], s[1], s[2]
-    return np.array([[0.0, 0.0], [parameters.l1 * np.cos(phi), parameters.l1 * np.sin(phi)], [x, 0.0]])
+    return _named(s, parameters, ("O", "A", "C"))
 
 
 def slider_crank_centres(s, parameters):
-    """Centres of mass C1 of the crank and C2 of the rod, as placed by the potential energy (5.b).
-
-    ``Pi = m1 g a1 sin phi + m2 g (l1 sin phi - a2 sin psi)``: C1 lies at OC1 = a1 along the
-    crank, and C2 at AC2 = a2 from the crank pin A towards the slider C.
+    """The centres of mass C1 of the crank and C2 of the rod at ``s``, those of the potential energy (5.b).
 
     Parameters
     ----------
     s : array_like
-        ``[phi, psi, x_C]``.
+        ``[phi, psi, x_C]`` [rad, rad, m].
     parameters : SliderCrankParameters
 
     Returns
     -------
     ndarray, shape (2, 2)
-        ``C1 = a1 (cos phi, sin phi)``, ``C2 = A - a2 (cos psi, sin psi)``.
+        The rows C1, C2 of :func:`closedloop.slider_crank.points`.
     """
+    return _named(s, parameters, ("C1", "C2"))
 
-    phi, psi = s[0], s[1]
-    crank = np.array([np.cos(phi), np.sin(phi)])
-    rod = np.array([np.cos(psi), np.sin(psi)])                 # from C towards A
-    return np.array([parameters.a1 * crank, parameters.l1 * crank - parameters.a2 * rod])
+
+def _named(s, parameters, names):
+    at = points(s, parameters.as_dict())
+    return np.array([at[name] for name in names], dtype=float)
 
 
 def _slider_crank_frame(ax, parameters, fontsize=12, guide=True):
@@ -67,7 +63,8 @@ def _slider_crank_frame(ax, parameters, fontsize=12, guide=True):
 
     reach = parameters.l1 + parameters.l2
     size = symbol_sizes(reach)
-    artists = pivot(ax, (0.0, 0.0), size["pivot"], zorder=1)
+    (o,) = _named((0.0, 0.0, 0.0), parameters, ("O",))
+    artists = pivot(ax, o, size["pivot"], zorder=1)
     if guide:                                            # one rail under the slider, over its stroke
         low = abs(parameters.l2 - parameters.l1) - 1.3 * size["half_width"]
         high = reach + 1.3 * size["half_width"]
@@ -117,8 +114,7 @@ def draw_slider_crank(ax, s, parameters, color=LINK, label=None, labels="none", 
     if labels not in ("none", "light", "full"):
         raise ValueError(f"labels: must be 'none', 'light' or 'full', got {labels!r}")
     p = parameters
-    o, a, c = slider_crank_points(s, p)
-    c1, c2 = slider_crank_centres(s, p)
+    o, a, c, c1, c2 = _named(s, p, ("O", "A", "C", "C1", "C2"))
     phi, psi = float(s[0]), float(s[1])
     reach = p.l1 + p.l2
     size = symbol_sizes(reach)
@@ -226,8 +222,8 @@ def slider_crank_diagram(system=None, phi=0.9, fontsize=12, values=True):
     draw_slider_crank(ax, s, p, labels="full", force_sign=system.reading.force_sign, fontsize=fontsize)
     ax.set_aspect("equal")
     ax.set_xlim(-0.45 * reach, 1.2 * reach)
-    low = min(-p.l1 * max(0.0, -math.sin(phi)), -0.24 * reach)
-    ax.set_ylim(low - 0.04 * reach, max(p.l1 * math.sin(phi), 0.0) + 0.12 * reach)
+    (pin,) = _named(s, p, ("A",))
+    ax.set_ylim(min(pin[1], -0.24 * reach) - 0.04 * reach, max(pin[1], 0.0) + 0.12 * reach)
     ax.set_axis_off()
     if values:
         units = {"l1": "m", "a1": "m", "m1": "kg", "I1": "kg m²", "l2": "m", "a2": "m", "m2": "kg",
