@@ -2,7 +2,8 @@
 
 - :mod:`~closedloop.plotting.slider_crank_drawing`, :mod:`~closedloop.plotting.four_bar_drawing`: the
   labelled drawings and animations of the slider-crank and the four-bar, drawn with the symbols of
-  :mod:`~closedloop.plotting.annotate` and played by :mod:`~closedloop.plotting.animation`;
+  :mod:`~closedloop.plotting.annotate`, their frames drawn by :mod:`~closedloop.plotting.animation` and
+  played by :mod:`~closedloop.plotting.player` (offline HTML);
 - :mod:`~closedloop.plotting.cases`: the paper-style figures of one slider-crank run (figures 3-14);
 - :mod:`~closedloop.plotting.basin`: the basin map (chapter 12);
 - :mod:`~closedloop.plotting.benchmark`: the error-against-run-time figures (chapter 8);

@@ -1,23 +1,24 @@
-"""Animations of a mechanism's run as offline HTML: evenly spaced instants drawn to palette PNGs, in a player.
+"""Animations of a run: evenly spaced instants drawn to small PNG images, shown by the offline player.
 
-matplotlib and Pillow are imported inside the functions only.
+:func:`animate` draws any mechanism given two functions, one for its still parts and one for its
+state at an instant (as :func:`closedloop.plotting.animate_slider_crank` does); the frames are
+played by :func:`closedloop.plotting.player.player_html`.  matplotlib and Pillow are imported
+inside the functions only.
 """
 
 from __future__ import annotations
 
-import base64
 import io
 import math
-import re
 
 import numpy as np
 
 from .annotate import INK
+from .player import player_html
 
-__all__ = ["MAX_FRAMES", "MIN_PLAYBACK", "playback", "animate"]
+__all__ = ["MAX_FRAMES", "MIN_PLAYBACK", "playback", "render_frames", "animate"]
 
-#: At most this many frames by default (about 0.5 MB of palette PNGs for the slider-crank): 20 s of
-#: motion play at 3x real time, in 100 frames that cost about 1.5 s to draw.
+#: At most this many frames by default: 20 s of motion at 15 frames per second play at 3x real time.
 MAX_FRAMES = 100
 #: A run shorter than this [s] is played in slow motion over this many seconds.
 MIN_PLAYBACK = 4.0
@@ -52,11 +53,37 @@ def playback(duration, fps=15, speed=None, frames=None):
     return max(2, int(round(duration * fps / speed))), float(speed)
 
 
-def animate(result, setup, draw, size, fps, speed, frames, title, dpi, alt):
-    """The shared player: evenly spaced instants of ``result`` as palette PNGs in an offline HTML player.
+def render_frames(result, setup, draw, size, fps=15, speed=None, frames=None, title=None, dpi=90, blit=True):
+    """Evenly spaced instants of a run, each drawn to a PNG image of 32 colours.
 
-    ``setup(ax)`` draws the still parts; ``draw(ax, s)`` draws the mechanism at state ``s`` and
-    returns its artists, which are removed before the next frame.
+    Each frame shows the mechanism at the output time of ``result`` nearest its instant, the
+    time, the playback speed when it is not 1, and ``title``.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The run; its output times should be dense (the frames take the nearest ones).
+    setup : callable
+        ``setup(ax)`` draws the still parts on the frames' axes (their limits too).
+    draw : callable
+        ``draw(ax, s)`` draws the mechanism at state ``s`` and returns the artists it made, which
+        are removed before the next frame.
+    size : (float, float)
+        Width and height of a frame [inches].
+    fps, speed, frames
+        As for :func:`playback`.
+    title : str, optional
+        Drawn on every frame.
+    dpi : float, optional
+        Pixels per inch of the frames.
+    blit : bool, optional
+        Render the still parts once and draw only the moving ones on them (the same pixels as
+        drawing every frame whole, which ``False`` does).
+
+    Returns
+    -------
+    list of bytes
+        The frames, each a PNG file.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -79,39 +106,58 @@ def animate(result, setup, draw, size, fps, speed, frames, title, dpi, alt):
     stamp = fig.text(0.015, 0.98 - (1.15 * line if title else 0.0), "", ha="left", va="top", fontsize=11,
                      color=INK)
 
-    frames_png = []
+    pngs = []
     moving = []
-    still = _StillBackground(canvas, ax)
+    still = _StillBackground(canvas, ax) if blit else None
     for k in range(count):
         for artist in moving:
             artist.remove()
         moving = draw(ax, result.s[:, index[k]])
         stamp.set_text(f"t = {result.t[index[k]]:.2f} s{pace}")
-        still.draw(moving)         # the pixels canvas.draw() would give, the still parts rendered once
+        if still is None:
+            canvas.draw()
+        else:
+            still.draw(moving)
         image = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba()).convert("RGB")
-        # 32 colours by the fast octree (MEDIANCUT took 4 of every 5 ms of a frame; the frames look the same)
+        # the fast octree: the frames look as with median cut, which is several times slower
         image = image.quantize(colors=32, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
         packed = io.BytesIO()
-        # zlib level 8: the same pixels as optimize=True (level 9) in 2/5 of its time, ~1.5 % more bytes
-        image.save(packed, format="png", compress_level=8)
-        frames_png.append(base64.encodebytes(packed.getvalue()).decode("ascii"))
+        image.save(packed, format="png", compress_level=8)   # level 9's pixels, faster, barely larger
+        pngs.append(packed.getvalue())
+    return pngs
 
-    html = _player_html(frames_png, fps)
-    html = html.replace('<img id="_anim_img', f'<img alt="{_escape(alt)}" id="_anim_img', 1)
-    return _offline_player(html)
+
+def animate(result, setup, draw, size, fps=15, speed=None, frames=None, title=None, dpi=90, alt=""):
+    """An offline HTML animation of a run: :func:`render_frames` in :func:`~closedloop.plotting.player.player_html`.
+
+    Parameters
+    ----------
+    result, setup, draw, size, fps, speed, frames, title, dpi
+        As for :func:`render_frames`.
+    alt : str, optional
+        The alternative text of the frames: what the animation shows.
+
+    Returns
+    -------
+    str
+        HTML to show with ``IPython.display.HTML``; it starts paused on the first frame and loops.
+    """
+    pngs = render_frames(result, setup, draw, size, fps=fps, speed=speed, frames=frames, title=title, dpi=dpi)
+    return player_html(pngs, fps, alt)
 
 
 class _StillBackground:
-    """The frames of an animation drawn as ``canvas.draw()`` would draw them, the still parts once.
+    """Frames drawn as ``canvas.draw()`` would draw them, the still parts rendered once.
 
     A full draw paints the figure's background, then the axes' children sorted by zorder (a
-    stable sort: the still artists of ``setup``, added first, come before moving ones of the same
-    zorder), then the figure's texts.  Everything that comes before the first moving artist is
-    the same in every frame: it is rendered once into a saved background (one per lowest zorder
-    of the moving artists), and each frame restores it and draws the rest in the same order, so
-    the pixels are those of a full draw.  The moving artists are those given to :meth:`draw`;
-    every other artist of the axes must be still, and the figure's own artists (title, time
-    stamp) are drawn after the axes in every frame.
+    stable sort: the still artists of ``setup``, added first, come before moving ones of the
+    same zorder), then the figure's texts.  Everything below the lowest moving artist is the same
+    in every frame: it is rendered once into a saved background (one per lowest zorder of the
+    moving artists), and each frame restores it and draws the rest in the same order with
+    matplotlib's blitting interface (``set_animated``, ``copy_from_bbox``, ``restore_region``,
+    ``draw_artist``).  The moving artists are those given to :meth:`draw`; every other artist of
+    the axes must be still.  Any other layout than :func:`render_frames`'s (one axes without
+    axis lines or images, no layout engine, the figure's texts above the axes) is drawn whole.
     """
 
     def __init__(self, canvas, ax):
@@ -119,22 +165,19 @@ class _StillBackground:
         self.still = [a for a in self._drawn_by_axes() if not a.get_animated()]
         self.backgrounds = {}              # lowest moving zorder -> (saved pixels, still artists drawn on top)
         on_top = [a for a in self.fig.get_children() if a is not self.fig.patch and a is not ax]
-        # only the layout assumed here: one axes, without images, and the figure's artists above it
-        self.exact = (self.fig.axes == [ax] and not ax.images and self.fig.get_layout_engine() is None
+        self.exact = (self.fig.axes == [ax] and not ax.axison and not ax.images
+                      and self.fig.get_layout_engine() is None
                       and all(a.get_zorder() >= ax.get_zorder() for a in on_top))
         self.on_top = sorted(on_top, key=lambda a: a.get_zorder())
 
     def _drawn_by_axes(self):
-        """The axes' children that ``Axes.draw`` draws, in its order before sorting."""
+        """The axes' children that ``Axes.draw`` draws when the axis is off, in its order before sorting."""
         ax = self.ax
-        skip = {id(ax.patch)}
-        if not (ax.axison and ax._frameon):
-            skip.update(id(spine) for spine in ax.spines.values())
-        if not ax.axison:
-            skip.update(id(axis) for axis in ax._axis_map.values())
+        skip = {id(ax.patch), id(ax.xaxis), id(ax.yaxis), *(id(spine) for spine in ax.spines.values())}
         return [a for a in ax.get_children() if id(a) not in skip]
 
     def draw(self, moving):
+        """Render the frame with the artists ``moving`` on the still parts."""
         if not self.exact or not moving:
             self.canvas.draw()
             return
@@ -151,48 +194,8 @@ class _StillBackground:
             self.backgrounds[lowest] = (self.canvas.copy_from_bbox(self.fig.bbox), on_top)
         pixels, on_top = self.backgrounds[lowest]
         self.canvas.restore_region(pixels)
-        renderer = self.canvas.get_renderer()
         wanted = {id(a) for a in on_top} | {id(a) for a in moving}
         for artist in sorted((a for a in self._drawn_by_axes() if id(a) in wanted), key=lambda a: a.get_zorder()):
-            artist.draw(renderer)
+            self.ax.draw_artist(artist)
         for artist in self.on_top:
-            artist.draw(renderer)
-
-
-def _escape(text):
-    return text.replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;").replace(">", "&gt;")
-
-
-def _player_html(frames_png, fps):
-    """matplotlib's JavaScript player (as :meth:`Animation.to_jshtml` writes it) around PNG frames."""
-    import uuid
-
-    from matplotlib._animation_data import DISPLAY_TEMPLATE, JS_INCLUDE, STYLE_INCLUDE
-    from matplotlib.animation import _embedded_frames
-
-    return JS_INCLUDE + STYLE_INCLUDE + DISPLAY_TEMPLATE.format(
-        id=uuid.uuid4().hex, Nframes=len(frames_png), fill_frames=_embedded_frames(frames_png, "png"),
-        interval=int(round(1000 / fps)), once_checked="", loop_checked="checked", reflect_checked="")
-
-
-#: matplotlib's player asks for Font Awesome 4 from a CDN; the book's theme ships Font Awesome 6.
-_PLAYER_ICONS = {
-    "fa fa-fast-backward": "fa-solid fa-backward-fast",
-    "fa fa-step-backward": "fa-solid fa-backward-step",
-    "fa fa-play fa-flip-horizontal": "fa-solid fa-play fa-flip-horizontal",
-    "fa fa-pause": "fa-solid fa-pause",
-    "fa fa-play": "fa-solid fa-play",
-    "fa fa-step-forward": "fa-solid fa-forward-step",
-    "fa fa-fast-forward": "fa-solid fa-forward-fast",
-    "fa fa-minus": "fa-solid fa-minus",
-    "fa fa-plus": "fa-solid fa-plus",
-}
-
-
-def _offline_player(html):
-    """The animation's HTML with no request to the network: no CDN stylesheet, local icon names."""
-
-    html = re.sub(r'<link rel="stylesheet"\s*href="https://maxcdn[^"]*font-awesome[^"]*">', "", html)
-    for old, new in _PLAYER_ICONS.items():
-        html = html.replace(f'class="{old}"', f'class="{new}"')
-    return html
+            self.fig.draw_artist(artist)

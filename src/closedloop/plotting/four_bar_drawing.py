@@ -221,4 +221,5 @@ def animate_four_bar(result, lengths, fps=15, speed=None, title=None, frames=Non
     height = max(2.4, width * 2.4 * arm / (l0 + 2.3 * arm) + 0.5)
     what = alt or (f"Animation of the four-bar{f' ({title})' if title else ''}: crank OA, coupler AB and "
                    "rocker DB moving along their run, with the time, the title and a scale bar on each frame.")
-    return animate(result, setup, draw, (width, height), fps, speed, frames, title, dpi, what)
+    return animate(result, setup, draw, (width, height), fps=fps, speed=speed, frames=frames, title=title, dpi=dpi,
+                   alt=what)

@@ -241,8 +241,8 @@ def animate_slider_crank(result, parameters, fps=15, speed=None, title=None, fra
     """A smooth offline HTML animation of a slider-crank run, drawn by :func:`draw_slider_crank`.
 
     Each frame draws the mechanism at one instant with light labels (O, A, C, phi, psi), the
-    time, the title and a 1 m scale bar.  The frames are small palette PNGs in matplotlib's
-    JavaScript player (no network request: see :func:`_offline_player`).
+    time, the title and a 1 m scale bar.  The frames are small PNG images in the library's
+    offline player (:func:`closedloop.plotting.player.player_html`).
 
     Parameters
     ----------
@@ -282,4 +282,5 @@ def animate_slider_crank(result, parameters, fps=15, speed=None, title=None, fra
 
     what = alt or (f"Animation of the slider-crank{f' ({title})' if title else ''}: crank OA, rod AC and "
                    "slider C moving along their run, with the time, the title and a 1 m scale bar on each frame.")
-    return animate(result, setup, draw, (6.4, 3.6), fps, speed, frames, title, dpi, what)
+    return animate(result, setup, draw, (6.4, 3.6), fps=fps, speed=speed, frames=frames, title=title, dpi=dpi,
+                   alt=what)
