@@ -108,8 +108,12 @@ _SCRIPT = """<script>
     slider.addEventListener("input", function () { stop(); show(parseInt(slider.value, 10)); });
     box.querySelector("div.anim-controls").hidden = false;
   }
-  var boxes = document.querySelectorAll("div.closedloop-player:not([data-ready])");
-  for (var n = 0; n < boxes.length; n++) { start(boxes[n]); }
+  function startAll() {
+    var boxes = document.querySelectorAll("div.closedloop-player:not([data-ready])");
+    for (var n = 0; n < boxes.length; n++) { start(boxes[n]); }
+    return boxes.length;
+  }
+  if (!startAll()) { setTimeout(startAll, 0); }     // a front end that runs the script before showing its output
 })();
 </script>"""
 
