@@ -18,11 +18,26 @@ LINK, INK, NOTE, FORCE, GROUND = "C0", "0.15", "0.35", "C3", "0.45"
 
 
 def unit_vector(angle):
+    """The unit vector at ``angle`` [rad] from the x axis, ``[cos angle, sin angle]``."""
     return np.array([math.cos(angle), math.sin(angle)])
 
 
 def pivot(ax, point, size, zorder=1):
-    """A fixed pivot: a triangle on a hatched ground line below ``point``."""
+    """Draw a fixed pivot: a triangle standing on a hatched ground line, its tip at ``point``.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    point : (float, float)
+        The pivot's centre [m].
+    size : float
+        The triangle's height [m].
+    zorder : float, optional
+
+    Returns
+    -------
+    list of matplotlib.artist.Artist
+    """
     from matplotlib.patches import Polygon, Rectangle
 
     x, y = point
@@ -35,21 +50,58 @@ def pivot(ax, point, size, zorder=1):
 
 
 def centre_of_mass(ax, point, gid, size=9, zorder=6):
-    """The centre-of-mass symbol, a circle half filled."""
+    """Draw the centre-of-mass symbol, a circle with its upper half filled.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    point : (float, float)
+        The centre of mass [m].
+    gid : str
+        The artist's id (``C1``, ``C2``, ...), by which a test finds it.
+    size, zorder : float, optional
+        Marker size [pt] and drawing order.
+
+    Returns
+    -------
+    matplotlib.lines.Line2D
+    """
     return ax.plot([point[0]], [point[1]], marker="o", ms=size, fillstyle="top", markerfacecolor=INK,
                    markerfacecoloralt="white", markeredgecolor=INK, mew=1.0, ls="none", zorder=zorder,
                    gid=gid)[0]
 
 
 def joints(ax, points, size, zorder=5):
+    """Draw pin joints, white circles, at ``points`` (an array of shape (k, 2) [m]); ``size`` in points.
+
+    Returns
+    -------
+    matplotlib.lines.Line2D
+    """
     return ax.plot(points[:, 0], points[:, 1], "o", ms=size, markerfacecolor="white", markeredgecolor=INK,
                    mew=1.3, ls="none", zorder=zorder)[0]
 
 
 def label_at(ax, point, text, offset, fontsize, color=INK, ha="center"):
-    """``text`` at ``point`` shifted by ``offset`` points, on a white halo: a line that passes under a name
-    (the arc of psi under C at some crank angles, the extension line of x_C under m3) does not strike it
-    through."""
+    """Write ``text`` beside ``point`` on a white halo, so that a line passing under it does not strike it through.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    point : (float, float)
+        The point named [m].
+    text : str
+    offset : (float, float)
+        From ``point`` to the text's centre [pt].
+    fontsize : float
+        [pt].
+    color : color, optional
+    ha : {"center", "left", "right"}, optional
+
+    Returns
+    -------
+    matplotlib.text.Annotation
+    """
     from matplotlib import patheffects
 
     return ax.annotate(text, xy=tuple(point), xytext=tuple(offset), textcoords="offset points",
@@ -58,8 +110,30 @@ def label_at(ax, point, text, offset, fontsize, color=INK, ha="center"):
 
 
 def dimension(ax, start, end, offset, text, fontsize, text_shift=0.0, color=NOTE, gid=None):
-    """A dimension line parallel to start-end, ``offset`` [m] to its left, with arrows at both ends;
-    ``gid`` names the arrow (whose ``xy`` is the end, ``xyann`` the start)."""
+    """Draw a dimension line: a double arrow parallel to ``start``-``end``, extension lines, and its name.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    start, end : (float, float)
+        The two points measured [m].
+    offset : float
+        Distance of the arrow from the segment, to its left looking from ``start`` to ``end`` [m]
+        (negative: to its right).
+    text : str
+        The length's name, beyond the arrow.
+    fontsize : float
+        [pt].
+    text_shift : float, optional
+        Moves the name further out (or in, negative) [m at 12 pt].
+    color : color, optional
+    gid : str, optional
+        The arrow's id; its ``xy`` is the end, its ``xyann`` the start.
+
+    Returns
+    -------
+    list of matplotlib.artist.Artist
+    """
     start, end = np.asarray(start, float), np.asarray(end, float)
     along = end - start
     normal = np.array([-along[1], along[0]]) / np.hypot(*along)
@@ -76,9 +150,34 @@ def dimension(ax, start, end, offset, text, fontsize, text_shift=0.0, color=NOTE
 
 
 def angle_arc(ax, centre, start, stop, radius, text, fontsize, color=NOTE, reference=None, at=0.5):
-    """An angle's arc from ``start`` to ``stop`` [rad] around ``centre`` (the short way, so a negative
-    angle turns clockwise), an arrow at ``stop``, its symbol beyond the arc, and a dashed reference
-    ray along ``start``."""
+    """Draw an angle: an arc from ``start`` to ``stop`` around ``centre``, an arrow head at ``stop``, its name.
+
+    The arc goes the short way, so a negative angle turns clockwise; an angle under 1e-3 rad
+    draws only its name.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    centre : (float, float)
+        The vertex [m].
+    start, stop : float
+        The directions the angle is measured from and to [rad].
+    radius : float
+        The arc's radius [m].
+    text : str
+        The angle's name, written beyond the arc.
+    fontsize : float
+        [pt].
+    color : color, optional
+    reference : float, optional
+        Length of a dashed ray along ``start`` [m]; none by default.
+    at : float, optional
+        Where along the arc the name stands, from 0 (``start``) to 1 (``stop``).
+
+    Returns
+    -------
+    list of matplotlib.artist.Artist
+    """
     from matplotlib.patches import Arc
 
     sweep = math.remainder(stop - start, 2 * math.pi)
@@ -102,7 +201,28 @@ def angle_arc(ax, centre, start, stop, radius, text, fontsize, color=NOTE, refer
 
 
 def arrow(ax, tail, head, text, fontsize, color, text_at="tail", offset=(0, 0), gid=None):
-    """A force's arrow from ``tail`` to ``head``, named ``gid``, and its label."""
+    """Draw a force: an arrow from ``tail`` to ``head`` [m] and its name.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    tail, head : (float, float)
+    text : str
+        The name; none if empty.
+    fontsize : float
+        [pt].
+    color : color
+    text_at : {"tail", "head"}, optional
+        The end the name is written at.
+    offset : (float, float), optional
+        From that end to the name [pt].
+    gid : str, optional
+        The arrow's id; its ``xy`` is the head, its ``xyann`` the tail.
+
+    Returns
+    -------
+    list of matplotlib.artist.Artist
+    """
     artists = [ax.annotate("", xy=tuple(head), xytext=tuple(tail), zorder=7, gid=gid,
                            arrowprops=dict(arrowstyle="-|>", color=color, lw=2.0, shrinkA=0, shrinkB=0,
                                            mutation_scale=16))]
@@ -112,7 +232,12 @@ def arrow(ax, tail, head, text, fontsize, color, text_at="tail", offset=(0, 0), 
 
 
 def scale_bar(ax, origin, length, fontsize):
-    """A bar of ``length`` metres from ``origin``, labelled with its length."""
+    """Draw a scale bar of ``length`` [m] from ``origin`` rightwards, its length written above it.
+
+    Returns
+    -------
+    list of matplotlib.artist.Artist
+    """
     x, y = origin
     return [ax.plot([x, x + length], [y, y], color=INK, lw=3, solid_capstyle="butt", zorder=8)[0],
             ax.text(x + length / 2, y, f"{length:g} m", ha="center", va="bottom", fontsize=fontsize,
@@ -120,12 +245,26 @@ def scale_bar(ax, origin, length, fontsize):
 
 
 def symbol_sizes(reach):
-    """Joint marker, slider half-size and pivot size, scaled with the mechanism's reach [m]."""
+    """Sizes of the symbols [m] for a mechanism of ``reach`` [m]: ``half_width`` and ``half_height`` of a
+    slider, ``pivot`` (a pivot's height)."""
     return {"half_width": 0.055 * reach, "half_height": 0.04 * reach, "pivot": 0.045 * reach}
 
 
 def values_text(values, units):
-    """'name = value unit' for each symbol, in the order of ``units``."""
+    """``"$l_1$ = 2 m"`` for each key of ``units``, in its order, with its value from ``values``.
+
+    Parameters
+    ----------
+    values : mapping
+        A value per parameter name (``l1``, ``m2``, ``I1``, ``g``, ...).
+    units : mapping
+        The unit of each parameter to write, in the order wanted.
+
+    Returns
+    -------
+    list of str
+        Mathtext, for matplotlib.
+    """
     names = {"l0": "l_0", "l1": "l_1", "l2": "l_2", "l3": "l_3", "a1": "a_1", "a2": "a_2", "m1": "m_1",
              "m2": "m_2", "m3": "m_3", "I1": "I_1", "I2": "I_2", "g": "g"}
     return [f"${names[key]}$ = {values[key]:g} {unit}" for key, unit in units.items()]

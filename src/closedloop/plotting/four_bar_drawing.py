@@ -55,6 +55,7 @@ def four_bar_centres(s, lengths):
 
 
 def _named(s, lengths, names):
+    """The points ``names`` of :func:`closedloop.four_bar.points` at ``s``, as the rows of an array."""
     at = points(s, lengths)
     return np.array([at[name] for name in names], dtype=float)
 
@@ -69,8 +70,8 @@ def _four_bar_frame(ax, lengths, reach):
 def draw_four_bar(ax, s, lengths, color=LINK, label=None, labels="none", fontsize=12):
     """Draw the four-bar at state s on ``ax``: crank OA, coupler AB, rocker DB, pivots O and D.
 
-    Positions from :func:`four_bar_points` and :func:`four_bar_centres` (the model of
-    :func:`closedloop.four_bar.four_bar_model`, constraint (13.a)).
+    The points are those of :func:`closedloop.four_bar.points`, from which the model of
+    :func:`closedloop.four_bar.four_bar_model` is made.
 
     Parameters
     ----------
@@ -78,7 +79,7 @@ def draw_four_bar(ax, s, lengths, color=LINK, label=None, labels="none", fontsiz
     s : array_like
         ``[theta1, theta2, theta3]``.
     lengths : mapping
-        Values of ``l0, l1, l2, l3`` [m] (and, for ``labels="full"``, nothing more is needed).
+        Values of ``l0, l1, l2, l3`` [m] (more keys are ignored).
     color : color, optional
     label : str, optional
         Legend label of the links.
@@ -86,10 +87,17 @@ def draw_four_bar(ax, s, lengths, color=LINK, label=None, labels="none", fontsiz
         ``"light"``: O, A, B, D and theta1; ``"full"``: also theta2, theta3, l0..l3, the centres
         of mass C1..C3 with m1..m3, and gravity g.
     fontsize : float, optional
+        Size of the labels [pt].
 
     Returns
     -------
     list of matplotlib.artist.Artist
+        Everything drawn, so that an animation can remove it and draw the next state.
+
+    Raises
+    ------
+    ValueError
+        If ``labels`` is not one of the three.
     """
     if labels not in ("none", "light", "full"):
         raise ValueError(f"labels: must be 'none', 'light' or 'full', got {labels!r}")

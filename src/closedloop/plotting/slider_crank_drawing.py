@@ -53,6 +53,7 @@ def slider_crank_centres(s, parameters):
 
 
 def _named(s, parameters, names):
+    """The points ``names`` of :func:`closedloop.slider_crank.points` at ``s``, as the rows of an array."""
     at = points(s, parameters.as_dict())
     return np.array([at[name] for name in names], dtype=float)
 
@@ -80,8 +81,8 @@ def draw_slider_crank(ax, s, parameters, color=LINK, label=None, labels="none", 
                       fontsize=12):
     """Draw the slider-crank at state s on the axes ``ax``: crank OA, rod AC and slider C.
 
-    The positions are those of :func:`slider_crank_points` and :func:`slider_crank_centres`, so the
-    drawing follows the model's coordinates (the paper's Fig. 1; section 3, (27)-(28), (5.b)).
+    The points are those of :func:`closedloop.slider_crank.points`, from which the model's
+    constraints (27)-(28) and potential energy (5.b) are made (the paper's Fig. 1).
 
     Parameters
     ----------
@@ -108,6 +109,11 @@ def draw_slider_crank(ax, s, parameters, color=LINK, label=None, labels="none", 
     -------
     list of matplotlib.artist.Artist
         Everything drawn, so that an animation can remove it and draw the next state.
+
+    Raises
+    ------
+    ValueError
+        If ``labels`` is not one of the three.
     """
     from matplotlib.patches import Rectangle
 
@@ -252,8 +258,9 @@ def animate_slider_crank(result, parameters, fps=15, speed=None, title=None, fra
     fps : float, optional
         Frames per second of playback.
     speed : float, optional
-        Seconds of motion per second of playback; default: see :func:`playback` (20 s of motion
-        play at 3x real time).  Shown on every frame when it is not 1.
+        Seconds of motion per second of playback; default: see
+        :func:`~closedloop.plotting.animation.playback` (20 s of motion play at 3x real time).
+        Shown on every frame when it is not 1.
     title : str, optional
         Drawn on every frame (e.g. the case).
     frames : int, optional
