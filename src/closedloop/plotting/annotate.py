@@ -10,11 +10,19 @@ import math
 
 import numpy as np
 
-__all__ = ["LINK", "INK", "NOTE", "FORCE", "GROUND", "unit_vector", "pivot", "centre_of_mass", "joints", "label_at",
+__all__ = ["LINK", "INK", "NOTE", "FORCE", "GROUND", "LABELS", "check_labels", "unit_vector", "pivot", "centre_of_mass", "joints", "label_at",
            "dimension", "angle_arc", "arrow", "scale_bar", "symbol_sizes", "values_text"]
 
 #: Colours of the drawings: links, joints' outline, annotations, forces.
 LINK, INK, NOTE, FORCE, GROUND = "C0", "0.15", "0.35", "C3", "0.45"
+#: How much a drawing of a mechanism names: nothing, its points and angles, or every symbol.
+LABELS = ("none", "light", "full")
+
+
+def check_labels(labels):
+    """Raise ValueError, naming ``labels`` and :data:`LABELS`, unless ``labels`` is one of them."""
+    if labels not in LABELS:
+        raise ValueError(f"labels: must be 'none', 'light' or 'full', got {labels!r}")
 
 
 def unit_vector(angle):

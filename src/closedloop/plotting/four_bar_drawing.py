@@ -11,8 +11,8 @@ import numpy as np
 
 from ..four_bar import points
 from .animation import animate
-from .annotate import (INK, LINK, angle_arc, arrow, centre_of_mass, dimension, joints, label_at, pivot,
-                       scale_bar, symbol_sizes, values_text)
+from .annotate import (INK, LINK, angle_arc, arrow, centre_of_mass, check_labels, dimension, joints, label_at,
+                       pivot, scale_bar, symbol_sizes, values_text)
 
 __all__ = ["four_bar_points", "four_bar_centres", "draw_four_bar", "four_bar_diagram", "animate_four_bar"]
 
@@ -41,10 +41,8 @@ def four_bar_centres(s, lengths):
 
     Parameters
     ----------
-    s : array_like
-        ``[theta1, theta2, theta3]`` [rad].
-    lengths : mapping
-        Values of ``l0, l1, l2, l3`` [m].
+    s, lengths
+        As for :func:`four_bar_points`.
 
     Returns
     -------
@@ -80,27 +78,23 @@ def draw_four_bar(ax, s, lengths, color=LINK, label=None, labels="none", fontsiz
         ``[theta1, theta2, theta3]``.
     lengths : mapping
         Values of ``l0, l1, l2, l3`` [m] (more keys are ignored).
-    color : color, optional
-    label : str, optional
-        Legend label of the links.
     labels : {"none", "light", "full"}, optional
         ``"light"``: O, A, B, D and theta1; ``"full"``: also theta2, theta3, l0..l3, the centres
         of mass C1..C3 with m1..m3, and gravity g.
-    fontsize : float, optional
-        Size of the labels [pt].
+    color, label, fontsize
+        As for :func:`~closedloop.plotting.draw_slider_crank`.
 
     Returns
     -------
     list of matplotlib.artist.Artist
-        Everything drawn, so that an animation can remove it and draw the next state.
+        Everything drawn.
 
     Raises
     ------
     ValueError
-        If ``labels`` is not one of the three.
+        If ``labels`` is none of the three.
     """
-    if labels not in ("none", "light", "full"):
-        raise ValueError(f"labels: must be 'none', 'light' or 'full', got {labels!r}")
+    check_labels(labels)
     o, a, b, d, *centres = _named(s, lengths, ("O", "A", "B", "D", "C1", "C2", "C3"))
     theta1, theta2, theta3 = (float(v) for v in s[:3])
     l0, l1, l2, l3 = (lengths[k] for k in ("l0", "l1", "l2", "l3"))

@@ -11,8 +11,8 @@ import numpy as np
 
 from ..slider_crank import points
 from .animation import animate
-from .annotate import (FORCE, GROUND, INK, LINK, NOTE, angle_arc, arrow, centre_of_mass, dimension, joints,
-                       label_at, pivot, scale_bar, symbol_sizes, unit_vector, values_text)
+from .annotate import (FORCE, GROUND, INK, LINK, NOTE, angle_arc, arrow, centre_of_mass, check_labels, dimension,
+                       joints, label_at, pivot, scale_bar, symbol_sizes, unit_vector, values_text)
 
 __all__ = ["slider_crank_points", "slider_crank_centres", "draw_slider_crank", "slider_crank_diagram",
            "animate_slider_crank"]
@@ -40,9 +40,8 @@ def slider_crank_centres(s, parameters):
 
     Parameters
     ----------
-    s : array_like
-        ``[phi, psi, x_C]`` [rad, rad, m].
-    parameters : SliderCrankParameters
+    s, parameters
+        As for :func:`slider_crank_points`.
 
     Returns
     -------
@@ -113,12 +112,11 @@ def draw_slider_crank(ax, s, parameters, color=LINK, label=None, labels="none", 
     Raises
     ------
     ValueError
-        If ``labels`` is not one of the three.
+        If ``labels`` is none of the three.
     """
     from matplotlib.patches import Rectangle
 
-    if labels not in ("none", "light", "full"):
-        raise ValueError(f"labels: must be 'none', 'light' or 'full', got {labels!r}")
+    check_labels(labels)
     p = parameters
     o, a, c, c1, c2 = _named(s, p, ("O", "A", "C", "C1", "C2"))
     phi, psi = float(s[0]), float(s[1])
