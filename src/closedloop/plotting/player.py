@@ -43,6 +43,7 @@ _STYLE = """<style>
 .closedloop-player .anim-buttons svg { width: 14px; height: 14px; fill: currentColor; vertical-align: middle; }
 .closedloop-player .anim-modes { border: 0; margin: 6px 0 0; padding: 0; }
 .closedloop-player .anim-modes label { margin: 0 8px; cursor: pointer; }
+.closedloop-player .anim-modes input { margin: 0 0.3em 0 0; vertical-align: middle; }
 .closedloop-player [hidden] { display: none !important; }
 </style>"""
 
