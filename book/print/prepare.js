@@ -50,7 +50,7 @@
   article.querySelectorAll('button.toggle-button').forEach((button) => button.remove());
   article.querySelectorAll('details').forEach((details) => { details.open = true; });
 
-  // Animations (matplotlib's player, closedloop.plotting.mechanism): the frame on show, no controls.
+  // Animations (the player of closedloop.plotting.player): the frame on show, no controls.
   const animations = [...article.querySelectorAll('div.animation')];
   animations.forEach((animation) => {
     animation.querySelectorAll('.anim-controls').forEach((controls) => controls.remove());

@@ -36,6 +36,7 @@ __all__ = [
     "DEFAULT_READING",
     "CASES",
     "Case",
+    "points",
     "slider_crank_model",
     "slider_crank_system",
     "SliderCrankSystem",
@@ -283,9 +284,52 @@ class GasForce(SwitchedForce):
         return out
 
 
+def points(s, values, module=np):
+    """The named points of the slider-crank at ``s = [phi, psi, x_C]``: its one home for positions.
+
+    The model's constraints (27)-(28) and potential energy (5.b) are made from these points
+    (:func:`slider_crank_model`), and the drawings of :mod:`closedloop.plotting` draw them.
+
+    Parameters
+    ----------
+    s : sequence of 3
+        ``[phi, psi, x_C]`` [rad, rad, m]: numbers, arrays of one shape (a point per entry), or
+        sympy expressions.
+    values : mapping
+        ``l1``, ``l2``, ``a1``, ``a2`` [m] (other keys are ignored), e.g.
+        :meth:`SliderCrankParameters.as_dict`; numbers or sympy symbols.
+    module : module, optional
+        Where ``cos`` and ``sin`` come from: numpy (default), math or sympy.
+
+    Returns
+    -------
+    dict of str to (x, y)
+        ``"O"``, the crank's pivot; ``"A"``, the crank pin; ``"C"``, the slider's pin;
+        ``"C1"`` and ``"C2"``, the centres of mass of crank and rod (OC1 = a1 along the crank,
+        AC2 = a2 along the rod); ``"rod end"``, the end of the rod reached from A along psi,
+        which (27)-(28) put at C.
+    """
+    phi, psi, x = s[0], s[1], s[2]
+    l1, l2, a1, a2 = values["l1"], values["l2"], values["a1"], values["a2"]
+    zero = 0 * x
+    crank = (module.cos(phi), module.sin(phi))
+    rod = (module.cos(psi), module.sin(psi))                    # from C towards A
+    pin = (l1 * crank[0], l1 * crank[1])
+    return {
+        "O": (zero, zero),
+        "A": pin,
+        "C": (x, zero),
+        "C1": (a1 * crank[0], a1 * crank[1]),
+        "C2": (pin[0] - a2 * rod[0], pin[1] - a2 * rod[1]),
+        "rod end": (pin[0] - l2 * rod[0], pin[1] - l2 * rod[1]),
+    }
+
+
 @lru_cache(maxsize=None)
 def slider_crank_model() -> MultibodyModel:
-    """The symbolic slider-crank of section 3: T, Pi, (27)-(28) and the drive torque.
+    """The symbolic slider-crank of section 3: T (5.a), Pi (5.b), (27)-(28) and the drive torque.
+
+    Pi and (27)-(28) are made from the positions of :func:`points`; T is (5.a) as printed.
 
     The gas force is not here: it switches, so it is a :class:`GasForce`.
     A :class:`SliderCrankSystem` does not call this function when the model's
@@ -301,9 +345,9 @@ def slider_crank_model() -> MultibodyModel:
          + sp.Rational(1, 2) * (I2 + m2 * a2**2) * dpsi**2
          + sp.Rational(1, 2) * m3 * dx**2
          - m2 * l1 * a2 * dphi * dpsi * sp.cos(phi - psi))
-    Pi = m1 * g * a1 * sp.sin(phi) + m2 * g * l1 * sp.sin(phi) - m2 * g * a2 * sp.sin(psi)
-    constraints = (l1 * sp.cos(phi) - l2 * sp.cos(psi) - x,      # (27)
-                   l1 * sp.sin(phi) - l2 * sp.sin(psi))          # (28)
+    at = points((phi, psi, x), {"l1": l1, "l2": l2, "a1": a1, "a2": a2}, sp)
+    Pi = sp.expand(g * (m1 * at["C1"][1] + m2 * at["C2"][1] + m3 * at["C"][1]))        # (5.b)
+    constraints = tuple(end - pin for end, pin in zip(at["rod end"], at["C"]))         # (27)-(28)
     torque = torque_mean + ripple * sp.sin(omega * t)
     return MultibodyModel(
         coordinates=(phi, psi, x), velocities=(dphi, dpsi, dx), kinetic_energy=T,

@@ -1,6 +1,9 @@
 """Figures and animations of the book, one module per subject; matplotlib only inside functions.
 
-- :mod:`~closedloop.plotting.mechanism`: labelled drawings and animations of the slider-crank and the four-bar;
+- :mod:`~closedloop.plotting.slider_crank_drawing`, :mod:`~closedloop.plotting.four_bar_drawing`: the
+  labelled drawings and animations of the slider-crank and the four-bar, drawn with the symbols of
+  :mod:`~closedloop.plotting.annotate`, their frames drawn by :mod:`~closedloop.plotting.animation` and
+  played by :mod:`~closedloop.plotting.player` (offline HTML);
 - :mod:`~closedloop.plotting.cases`: the paper-style figures of one slider-crank run (figures 3-14);
 - :mod:`~closedloop.plotting.basin`: the basin map (chapter 12);
 - :mod:`~closedloop.plotting.benchmark`: the error-against-run-time figures (chapter 8);
@@ -12,7 +15,7 @@ The figures, drawings and tables of these modules are re-exported here, so ``fro
 closedloop.plotting import X`` works for them; the interactive figures (Bokeh) are imported
 from :mod:`~closedloop.plotting.interactive` itself, which a chapter pays for only when it
 draws one, and the style's helpers (``STYLE_PATH``, ``rendered_text_px``) from
-:mod:`~closedloop.plotting.style`, and `playback` from :mod:`~closedloop.plotting.mechanism`.  No module
+:mod:`~closedloop.plotting.style`, and `playback` from :mod:`~closedloop.plotting.animation`.  No module
 of the package imports matplotlib at import time, so simulating never pulls it in; and the
 package lies outside the benchmark's source fingerprint, so a figure change never makes the
 stored study stale.
@@ -23,9 +26,9 @@ from __future__ import annotations
 from .basin import plot_basin_map
 from .benchmark import pareto_figure, residual_figure, work_precision_figure
 from .cases import plot_slider_crank
-from .mechanism import (animate_four_bar, animate_slider_crank, draw_four_bar, draw_slider_crank, four_bar_centres,
-                        four_bar_diagram, four_bar_points, slider_crank_centres, slider_crank_diagram,
-                        slider_crank_points)
+from .four_bar_drawing import animate_four_bar, draw_four_bar, four_bar_centres, four_bar_diagram, four_bar_points
+from .slider_crank_drawing import (animate_slider_crank, draw_slider_crank, slider_crank_centres, slider_crank_diagram,
+                                   slider_crank_points)
 from .style import book_style, legend_outside, use_book_style
 from .tables import Table
 

@@ -19,7 +19,6 @@ import hashlib
 import html
 import json
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -195,8 +194,8 @@ def interactive_basin_map(basin, motions=None, selected=(np.pi, 1.0)):
              for code in (0, 1) if np.any(outcome == code)]
     left.add_layout(Legend(items=items, orientation="horizontal", location="center"), "below")
 
-    # min_border_right: room for the last time tick, centred on the frame's right edge (t_end), which a print
-    # of the page cut in half (the "0" of "20" in the PDF; on screen it touched the edge)
+    # min_border_right: room for the last time tick, centred on the frame's right edge (t_end), which the
+    # edge would otherwise cut
     right = figure(title="φ(t) of the selected cell", x_axis_label="time t [s]", y_axis_label="crank angle φ [rad]",
                    tools=tools, sizing_mode="stretch_width", height=400, min_width=250, toolbar_location="above",
                    x_range=(0.0, basin.t_end), min_border_right=16, name="basin-motion-plot")
@@ -298,7 +297,7 @@ def interactive_work_precision(rows, case=2, entries=None):
 
 
 #: Decades a log axis of Bokeh must span for its ticks to be powers of ten: over less, BokehJS's LogTicker
-#: places linear ticks (case 2's CPU times, 7 ms to 0.39 s, got 0.1, 0.2, 0.3 and 0.4 s, and no label below).
+#: places linear ticks.
 _LOG_TICKS_DECADES = 2.0
 
 
