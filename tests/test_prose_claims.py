@@ -378,3 +378,96 @@ def test_the_glue_detector_sees_a_visible_glue(tmp_path):
                     "```{code-cell} ipython3\nfrom myst_nb import glue\nglue('k', 1)\n```\n")
     with pytest.raises(AssertionError, match="calls glue"):
         test_no_cell_the_reader_sees_glues(page)
+
+
+# --- chapters 10-13: a bound stated in the prose holds for the value it bounds ----------------------
+
+#: (chapter, key pasted in the prose, "upper" or "lower", key glued with the exact value it bounds).
+#: The number the reader sees (the pasted key's value in the format the prose gives it) must lie on
+#: its side of the exact value: an upper bound ("below", "at most", "within", "to") at or above it,
+#: a lower bound ("more than", "at least") at or below it. Nearest rounding breaks this: 2.4e-10
+#: printed with ``.0e`` reads 2e-10 (``closedloop.plotting.rounded_bound`` rounds to the safe side).
+BOUNDS_IN_CHAPTERS_10_TO_13 = [
+    ("10-singularities-and-switches.md", "ch10-det-agreement", "upper", "ch10-det-agreement-exact"),
+    ("10-singularities-and-switches.md", "ch10-dead-angle-gap", "upper", "ch10-dead-angle-gap-exact"),
+    ("10-singularities-and-switches.md", "ch10-rocking-residual", "upper", "ch10-rocking-residual-exact"),
+    ("10-singularities-and-switches.md", "ch10-rocking-distance", "upper", "ch10-rocking-distance-exact"),
+    ("10-singularities-and-switches.md", "ch10-naive-overshoot", "upper", "ch10-naive-overshoot-exact"),
+    ("10-singularities-and-switches.md", "ch10-sticking-time-spread", "upper",
+     "ch10-sticking-time-spread-exact"),
+    ("10-singularities-and-switches.md", "ch10-final-phi-spread", "upper", "ch10-final-phi-spread-exact"),
+    ("10-singularities-and-switches.md", "ch10-ramp-explicit-growth", "lower",
+     "ch10-ramp-explicit-growth-exact"),
+    ("11-energy.md", "ch11-turn-cycle-gap", "upper", "ch11-turn-cycle-gap-exact"),
+    ("11-energy.md", "ch11-largest-ripple-per-turn", "upper", "ch11-largest-ripple-per-turn-exact"),
+    ("11-energy.md", "ch11-ripple-share", "upper", "ch11-ripple-share-exact"),
+    ("12-basins.md", "ch12-margin-over-error", "lower", "ch12-margin-over-error-exact"),
+    ("13-four-bar.md", "ch13-redundant-stop-gap", "upper", "ch13-redundant-stop-gap-exact"),
+    ("13-four-bar.md", "ch13-largest-pendulum-error", "upper", "ch13-largest-pendulum-error-exact"),
+    ("13-four-bar.md", "ch13-largest-energy-drift", "upper", "ch13-largest-energy-drift-exact"),
+    ("13-four-bar.md", "ch13-turning-vs-limit", "upper", "ch13-turning-vs-limit-exact"),
+]
+
+
+def glued_values(chapter, site):
+    """``{key: value}`` of every ``glue`` of a chapter, from the build's run of its current source."""
+    import ast
+
+    import jupytext
+    from jupyter_cache import get_cache
+
+    try:
+        _, notebook = get_cache(site.parent / ".jupyter_cache").merge_match_into_notebook(
+            jupytext.read(ROOT / "chapters" / chapter))
+    except KeyError:
+        pytest.fail(f"{chapter}: the build's execution cache holds no run of this page's current source")
+    values = {}
+    for cell in notebook.cells:
+        for output in cell.get("outputs", []):
+            record = output.get("metadata", {}).get("scrapbook")
+            if record:
+                text = output["data"][record["mime_prefix"] + "text/plain"]
+                values[record["name"]] = ast.literal_eval(text)
+    return values
+
+
+def printed_numbers(chapter, key, value):
+    """The number the reader reads wherever the chapter's prose pastes ``key``, read back as a float."""
+    markdown, _ = markdown_and_code(chapter)
+    specs = re.findall(r"\{glue(?::text)?\}`" + re.escape(key) + r"(?::([^`]*))?`", "\n".join(markdown))
+    assert specs, f"{chapter}: the prose does not paste {key}"
+    return [float(format(value, spec)) if spec else float(value) for spec in specs]
+
+
+def on_its_side(printed, side, exact):
+    return printed >= exact if side == "upper" else printed <= exact
+
+
+@pytest.mark.parametrize("chapter, key, side, exact_key", BOUNDS_IN_CHAPTERS_10_TO_13,
+                         ids=[b[1] for b in BOUNDS_IN_CHAPTERS_10_TO_13])
+def test_a_bound_stated_in_chapters_10_to_13_holds(chapter, key, side, exact_key, built_site):
+    values = glued_values(chapter, built_site)
+    assert key in values and exact_key in values, f"{chapter}: glue {key!r} and {exact_key!r} in a hidden cell"
+    for printed in printed_numbers(chapter, key, values[key]):
+        assert on_its_side(printed, side, values[exact_key]), \
+            f"{chapter}: the prose prints {printed!r} as an {side} bound of {values[exact_key]!r}"
+
+
+def test_every_exact_value_of_chapters_10_to_13_is_a_listed_bound():
+    """A hidden ``...-exact`` glue exists only to check a bound: one without an entry above checks nothing."""
+    listed = {(chapter, exact) for chapter, _, _, exact in BOUNDS_IN_CHAPTERS_10_TO_13}
+    for chapter in sorted({chapter for chapter, _, _, _ in BOUNDS_IN_CHAPTERS_10_TO_13}):
+        _, code = markdown_and_code(chapter)
+        for key in re.findall(r"\bglue\(\s*[\"']([^\"']+-exact)[\"']", "\n".join(code)):
+            assert (chapter, key) in listed, f"{chapter} glues {key}, not in BOUNDS_IN_CHAPTERS_10_TO_13"
+
+
+@pytest.mark.parametrize("value, spec, side, exact, holds", [
+    (2.4e-10, ".0e", "upper", 2.4e-10, False),    # nearest rounding: 2e-10, below the value
+    (3e-10, ".0e", "upper", 2.4e-10, True),       # rounded up first
+    (0.0048, ".4f", "upper", 0.00472, True),
+    (6, "d", "lower", 6.08, True),
+    (7, "d", "lower", 6.08, False),               # "more than 7 orders" of 6.08
+])
+def test_the_bound_check_sees_a_bound_printed_on_the_wrong_side(value, spec, side, exact, holds):
+    assert on_its_side(float(format(value, spec)), side, exact) is holds
