@@ -1,10 +1,14 @@
-"""The book's tables (closedloop.plotting.Table): HTML in a page, aligned text elsewhere."""
+"""The book's tables (closedloop.plotting.Table): HTML in a page, aligned text elsewhere; and the bounds its
+prose states (closedloop.plotting.rounded_bound), rounded on their safe side."""
 
 import html.parser
+import math
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
-from closedloop.plotting import Table
+from closedloop.plotting import Table, rounded_bound
 
 
 class Cells(html.parser.HTMLParser):
@@ -71,3 +75,28 @@ def test_a_column_of_text_stays_left_aligned_even_with_numbers_in_other_columns(
 def test_a_row_or_formats_of_the_wrong_length_is_refused(rows, columns, formats):
     with pytest.raises(ValueError, match="columns"):
         Table(rows, columns, formats)
+
+
+@given(value=st.floats(min_value=1e-300, max_value=1e300), digits=st.integers(1, 4), upper=st.booleans())
+def test_a_rounded_bound_printed_with_its_digits_still_bounds_the_value(value, digits, upper):
+    bound = rounded_bound(value, digits, upper)
+    printed = float(format(bound, f".{digits - 1}e"))      # what the prose shows, read back
+    assert printed == bound
+    assert (printed >= value) if upper else (printed <= value)
+    unit = 10.0 ** (math.floor(math.log10(value)) - digits + 1)   # one step of the last printed digit
+    assert abs(printed - value) <= 1.000001 * unit, "rounded further than one digit"
+
+
+@pytest.mark.parametrize("value, digits, upper, expected", [
+    (2.4e-10, 1, True, 3e-10), (2.4e-10, 1, False, 2e-10), (2.6e-12, 1, True, 3e-12), (3e-12, 1, True, 3e-12),
+    (9.99e-13, 1, True, 1e-12), (0.0123, 2, True, 0.013), (-2.4e-10, 1, True, -2e-10), (0.0, 1, True, 0.0),
+])
+def test_rounded_bound_examples(value, digits, upper, expected):
+    """Nearest rounding prints 2.4e-10 as 2e-10, below the value: an upper bound goes up instead."""
+    assert rounded_bound(value, digits, upper) == expected
+
+
+@pytest.mark.parametrize("digits", [0, 1.5, True])
+def test_rounded_bound_refuses_a_number_of_digits_that_is_not_a_positive_whole_number(digits):
+    with pytest.raises(ValueError, match="digits"):
+        rounded_bound(1.0, digits)

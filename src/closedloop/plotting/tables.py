@@ -2,13 +2,19 @@
 
 A notebook shows the object's ``_repr_html_`` (a real ``<table>`` that fits the text column), and
 a terminal or a plain-text output its ``__repr__`` (columns aligned with spaces).
+
+:func:`rounded_bound` rounds a number that the prose states as a bound, on the side that keeps it one.
 """
 
 from __future__ import annotations
 
+import decimal
 import html
+import math
 import numbers
 from collections.abc import Callable, Sequence
+
+__all__ = ["Table", "rounded_bound", "MISSING"]
 
 #: What a cell holding ``None`` shows.
 MISSING = "-"
@@ -88,3 +94,42 @@ def _format(value, spec) -> str:
     if not spec:
         return str(value)
     return format(value, spec)
+
+
+def rounded_bound(value: float, digits: int = 1, upper: bool = True) -> float:
+    """``value`` rounded to ``digits`` significant digits on the side that keeps a bound a bound.
+
+    A sentence such as "|f| stays below 3e-10 m" states an upper bound; printed with ``.0e`` from
+    the value itself, 2.6e-10 would read 3e-10 but 2.4e-10 would read 2e-10, which the value
+    exceeds. Rounded here first (up for an upper bound, down for a lower one), the number printed
+    with ``digits`` significant digits (``.{digits - 1}e``) still bounds the value.
+
+    Parameters
+    ----------
+    value : float
+        The value the prose bounds.
+    digits : int, optional
+        Significant digits of the printed bound (1 by default).
+    upper : bool, optional
+        True (the default) for an upper bound ("below", "at most", "within"), rounded up;
+        False for a lower bound ("at least", "more than"), rounded down.
+
+    Returns
+    -------
+    float
+        The rounded bound; 0, infinities and NaN are returned unchanged.
+
+    Examples
+    --------
+    >>> rounded_bound(2.4e-10), rounded_bound(2.4e-10, upper=False), rounded_bound(0.0123, digits=2)
+    (3e-10, 2e-10, 0.013)
+    """
+    if isinstance(digits, bool) or not isinstance(digits, int) or digits < 1:
+        raise ValueError(f"digits: need a positive whole number of significant digits, got {digits!r}")
+    value = float(value)
+    if value == 0.0 or not math.isfinite(value):
+        return value
+    exact = decimal.Decimal(repr(value))    # the shortest decimal that is this float: 3e-12 stays 3e-12
+    quantum = decimal.Decimal(1).scaleb(exact.adjusted() - digits + 1)
+    rounded = exact.quantize(quantum, rounding=decimal.ROUND_CEILING if upper else decimal.ROUND_FLOOR)
+    return float(rounded)
