@@ -4,7 +4,7 @@ import html.parser
 
 import pytest
 
-from closedloop.plotting import Table
+from closedloop.plotting import Table, rounded_bound
 
 
 class Cells(html.parser.HTMLParser):
@@ -71,3 +71,24 @@ def test_a_column_of_text_stays_left_aligned_even_with_numbers_in_other_columns(
 def test_a_row_or_formats_of_the_wrong_length_is_refused(rows, columns, formats):
     with pytest.raises(ValueError, match="columns"):
         Table(rows, columns, formats)
+
+
+@pytest.mark.parametrize("spec", [".0f", ".1f", ".2f", ".3f", ".1e", ".2e", ".0%", ".3g"])
+def test_a_rounded_bound_holds_for_the_value_and_for_the_value_as_printed(spec):
+    """Rounded to nearest, a bound printed with the table's digits can fall below the table
+    ("below 2.3" above 2.35e-09); rounded in the safe direction it never does, and one of the
+    two directions is the number as printed."""
+    import numpy as np
+
+    values = np.random.default_rng(36).lognormal(0.0, 4.0, 2000) * np.random.default_rng(7).choice([-1, 1], 2000)
+    for value in values:
+        shown = float(format(value, spec).rstrip("%")) / (100 if spec.endswith("%") else 1)
+        up, down = rounded_bound(value, spec), rounded_bound(value, spec, upper=False)
+        assert format(up, spec) == format(float(format(up, spec).rstrip("%")) / (100 if spec.endswith("%") else 1), spec)
+        assert up >= value and up >= shown and down <= value and down <= shown, (value, spec, up, down)
+        assert up == shown or down == shown
+
+
+def test_rounded_bound_refuses_a_value_that_is_not_finite():
+    with pytest.raises(ValueError, match="finite"):
+        rounded_bound(float("nan"), ".2f")

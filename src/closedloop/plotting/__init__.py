@@ -6,7 +6,8 @@
 - :mod:`~closedloop.plotting.benchmark`: the error-against-run-time figures (chapter 8);
 - :mod:`~closedloop.plotting.style`: the book's one style (``closedloop.mplstyle``), applied by
   every figure function here and by :func:`use_book_style` in a chapter that draws its own figure;
-- :mod:`~closedloop.plotting.tables`: `Table`, the book's printed tables as HTML tables.
+- :mod:`~closedloop.plotting.tables`: `Table`, the book's printed tables as HTML tables, and
+  `rounded_bound`, a bound stated beside printed numbers, rounded in the safe direction.
 
 The figures, drawings and tables of these modules are re-exported here, so ``from
 closedloop.plotting import X`` works for them; the interactive figures (Bokeh) are imported
@@ -27,10 +28,10 @@ from .mechanism import (animate_four_bar, animate_slider_crank, draw_four_bar, d
                         four_bar_diagram, four_bar_points, slider_crank_centres, slider_crank_diagram,
                         slider_crank_points)
 from .style import book_style, legend_outside, use_book_style
-from .tables import Table
+from .tables import Table, rounded_bound
 
 __all__ = ["plot_slider_crank", "slider_crank_points", "slider_crank_centres", "draw_slider_crank",
            "slider_crank_diagram", "animate_slider_crank", "four_bar_points", "four_bar_centres", "draw_four_bar",
            "four_bar_diagram", "animate_four_bar", "plot_basin_map",
            "work_precision_figure", "pareto_figure", "residual_figure",
-           "Table", "book_style", "use_book_style", "legend_outside"]
+           "Table", "rounded_bound", "book_style", "use_book_style", "legend_outside"]

@@ -2,13 +2,16 @@
 
 A notebook shows the object's ``_repr_html_`` (a real ``<table>`` that fits the text column), and
 a terminal or a plain-text output its ``__repr__`` (columns aligned with spaces).
+:func:`rounded_bound` rounds a bound that a sentence states beside such printed numbers.
 """
 
 from __future__ import annotations
 
 import html
+import math
 import numbers
 from collections.abc import Callable, Sequence
+from decimal import Decimal
 
 #: What a cell holding ``None`` shows.
 MISSING = "-"
@@ -88,3 +91,55 @@ def _format(value, spec) -> str:
     if not spec:
         return str(value)
     return format(value, spec)
+
+
+def rounded_bound(value, spec, upper=True):
+    """``value`` rounded in the safe direction to the digits that ``format(value, spec)`` shows.
+
+    A sentence that states a bound beside printed numbers ("|f| stays at most 2.36e-09 m" above a
+    table printing ``2.35e-09``) must hold for the value and for the value as printed. Rounding to
+    nearest can break it (2.356 printed with ``.2f`` is 2.36, but "below 2.35" is false); this
+    rounds an upper bound up and a lower bound down, with the same digits, so that the bound,
+    printed with ``spec``, is at least (at most) both the value and the value printed with ``spec``.
+
+    Parameters
+    ----------
+    value : float
+        The value the bound is for: the largest of the values bounded, or for a lower bound the
+        smallest.
+    spec : str
+        The format specification the page prints the bound with (``".2f"``, ``".1e"``, ``".0%"``).
+    upper : bool, optional
+        True (default) for an upper bound, rounded up; False for a lower bound, rounded down.
+
+    Returns
+    -------
+    float
+        The bound, which ``format(bound, spec)`` prints exactly.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not finite.
+
+    Examples
+    --------
+    >>> rounded_bound(2.3456e-9 / 1e-9, ".2f"), rounded_bound(4.41e-9, ".1e")
+    (2.35, 4.5e-09)
+    >>> rounded_bound(0.9687, ".3f", upper=False), format(rounded_bound(0.3401, ".0%"), ".0%")
+    (0.968, '35%')
+    """
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"value must be finite, got {value!r}")
+    text = format(value, spec)
+    percent = text.endswith("%")
+    shown = Decimal(text.rstrip("%"))
+    step = Decimal(1).scaleb(shown.as_tuple().exponent)
+    if percent:
+        shown, step = shown / 100, step / 100
+    if upper and float(shown) < value:
+        shown += step
+    elif not upper and float(shown) > value:
+        shown -= step
+    return float(shown)
