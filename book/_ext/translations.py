@@ -168,6 +168,24 @@ def problems(path: Path, terms: list[Term] | None = None) -> list[Problem]:
     return found
 
 
+def display_equations(page_html: str) -> list[str]:
+    """The display equations of a built page (site or single page), in order, each as the TeX it shows
+    with the words of its ``\\text{}`` left out: the same list in every edition of a page.
+
+    An equation whose translated TeX was lost shows as ``::`` or nothing; it is kept as it is, so
+    that the comparison with the source edition sees it.
+    """
+    from bs4 import BeautifulSoup
+
+    soup = BeautifulSoup(page_html, "html.parser")
+    equations = []
+    for node in soup.select("div.math"):
+        tex = node.get_text().strip()
+        tex = re.sub(r"^\\\[|\\\]$", "", tex).strip()
+        equations.append(" ".join(TEXT_IN_MATH.sub(r"\\text{}", tex).split()))
+    return equations
+
+
 def catalogues(locale: Path) -> dict[str, Path]:
     """``{page: .po path}`` of one language's folder, e.g. ``locales/vi/LC_MESSAGES``."""
     return {str(path.relative_to(locale).with_suffix("")): path for path in sorted(locale.rglob("*.po"))}
