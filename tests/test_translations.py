@@ -126,7 +126,7 @@ def test_catalogues_are_in_step_with_the_sources(built_site):
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "_config.yml").write_text(yaml.safe_dump(editions.edition_config("en"), allow_unicode=True))
     jupyter_book = Path(sys.executable).with_name("jupyter-book")
-    run = subprocess.run([str(jupyter_book), "build", ".", "-q", "--builder", "custom", "--custom-builder", "gettext",
+    run = subprocess.run([str(jupyter_book), "build", ".", "-q", "--all", "--builder", "custom", "--custom-builder", "gettext",
                           "--config", str(folder / "_config.yml"), "--path-output", str(folder)],
                          cwd=ROOT, capture_output=True, text=True, timeout=900)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
@@ -212,7 +212,7 @@ def test_the_words_of_the_outputs_are_translated(built_site):
     """The editions share one execution, so their outputs are English; the Vietnamese pages show the
     catalogue's translation of every heading, alt text and player label of them (book/_ext/translatable.py),
     and the code cells' buttons in Vietnamese."""
-    editions = _load("editions")
+    editions, translatable = _load("editions"), _load("translatable")
     wrong, buttons = {}, {}
     for page in toc_pages():
         english = output_words((built_site / f"{page}.html").read_text(encoding="utf-8"))
@@ -220,8 +220,8 @@ def test_the_words_of_the_outputs_are_translated(built_site):
         vietnamese = output_words(vietnamese_html)
         catalogue = {message.id: message.string for message in translations.read_catalog(LOCALE / f"{page}.po")
                      if message.id and message.string and not message.fuzzy}
-        shown = [(word, catalogue.get(word, word), seen) for word, seen in zip(english, vietnamese)
-                 if seen != catalogue.get(word, word)]
+        expected = [translatable.localised(word, catalogue.get) for word in english]
+        shown = [(word, wanted, seen) for word, wanted, seen in zip(english, expected, vietnamese) if seen != wanted]
         if len(english) != len(vietnamese) or shown:
             wrong[page] = (len(english), len(vietnamese), shown[:3])
         left = [word for word in editions.EDITIONS["vi"]["interface"] if word in vietnamese_html]
@@ -248,3 +248,8 @@ def test_the_output_words_are_read_and_put_back():
         '"Play" aria-label="Play"', '"Phát" aria-label="Phát"').replace(
         "A &quot;flat&quot; line", "Một đường &quot;phẳng&quot;")
     assert node.extract_original_messages() == ["max |f| [m]", "case", 'A "flat" line', "Play", "Once"]
+    numbered = translatable.translated_html("", '<th>rtol = 1e-06</th><th>rtol = 1e-09</th>', format="html")
+    numbered.preserve_original_messages()
+    assert numbered.extract_original_messages() == ["rtol = {1}"]            # one message for both values
+    numbered.apply_translated_message("rtol = {1}", "dung sai {1}")
+    assert numbered.astext() == "<th>dung sai 1e-06</th><th>dung sai 1e-09</th>"

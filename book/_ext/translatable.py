@@ -18,7 +18,10 @@ its lines are a message of the page.
 The words a reader meets in them are messages of the page's catalogue, like its prose: the headings
 and caption of a table (``closedloop.plotting.Table``), every ``alt``, ``title`` and ``aria-label`` of
 an HTML output, the labels of the animations' player ("Once", "Loop", "Reflect"), and the ``alt`` of
-every figure (``:mystnb: {image: {alt: ...}}``). An HTML output becomes a :class:`translated_html`
+every figure (``:mystnb: {image: {alt: ...}}``). The numbers in an HTML output's words are the
+message's parameters ``{1}``, ``{2}``, ... (:func:`message_of`), so that a heading built from a
+value ("rtol = atol = 1e-06", a table's caption) does not change its message when the value
+changes; a translation keeps every parameter. An HTML output becomes a :class:`translated_html`
 node, Sphinx's ``addnodes.translatable``: the gettext build extracts its words (``make translations``
 writes them into the page's catalogue with everything else, and ``tests/test_translations.py`` lists
 the untranslated ones by page), and the translated edition puts each translation back in place.
@@ -55,8 +58,43 @@ _WORDS = re.compile(r"(?P<open><(?P<tag>th|caption|label)\b[^>]*>)(?P<text>[^<]*
 _SCRIPT = re.compile(r"(<(script|style)\b.*?</\2\s*>)", re.I | re.S)
 
 
+#: A number in an output's words: a parameter of its message, not part of it.
+#: (Not an exponent "m^2", a denominator "pi/2", nor an equation's number "(12)".)
+_NUMBER = re.compile(r"(?<![\w.^/])(?<!\()\d+(?:\.\d+)?(?:e[-+]?\d+)?(?![\w.])|(?<=\()\d+(?:\.\d+)?(?:e[-+]?\d+)?(?![\w.)])")
+_PLACE = re.compile(r"\{(\d+)\}")
+
+
 def _has_words(text: str) -> bool:
     return re.search(r"[^\W\d_]{2,}", text) is not None
+
+
+def message_of(text: str) -> tuple[str, list[str]]:
+    """An output's words as a message and its numbers: each number becomes ``{1}``, ``{2}``, ...
+
+    The words of an output are often built from values ("rtol = atol = 1e-06", "Animation of the
+    slider-crank (Case 2)"); with the numbers as parameters the message stays the same when the
+    values change, and one translation serves every value.
+
+    >>> message_of("|f| at 1000 s, rtol = 1e-06, RK45")
+    ('|f| at {1} s, rtol = {2}, RK45', ['1000', '1e-06'])
+    """
+    numbers = []
+
+    def place(match):
+        numbers.append(match.group(0))
+        return "{%d}" % len(numbers)
+
+    return _NUMBER.sub(place, text), numbers
+
+
+def localised(text: str, lookup) -> str:
+    """``text`` in the edition's language: its message looked up with ``lookup(message)`` (None or the
+    message itself when there is no translation), its numbers put back in their places."""
+    message, numbers = message_of(text)
+    translated = lookup(message)
+    if not translated or translated == message:
+        return text
+    return _PLACE.sub(lambda match: numbers[int(match.group(1)) - 1], translated)
 
 
 def _rewrite(markup: str, translate) -> str:
@@ -80,18 +118,19 @@ def _rewrite(markup: str, translate) -> str:
 
 
 def html_messages(markup: str) -> list[str]:
-    """The words of an HTML output that a reader reads, each once, in order.
+    """The words of an HTML output that a reader reads, as messages (:func:`message_of`), each once, in order.
 
-    >>> html_messages('<table><thead><tr><th class="num">max |f| [m]</th></tr></thead></table>'
-    ...               '<img alt="A &quot;flat&quot; line" src="x.png"><label for="r">Once</label>'
+    >>> html_messages('<table><thead><tr><th class="num">max |f| [m]</th><th>rtol = 1e-06</th></tr></thead>'
+    ...               '</table><img alt="A &quot;flat&quot; line" src="x.png"><label for="r">Once</label>'
     ...               '<button title="Play" aria-label="Play">1</button><script>var title="no";</script>')
-    ['max |f| [m]', 'A "flat" line', 'Once', 'Play']
+    ['max |f| [m]', 'rtol = {1}', 'A "flat" line', 'Once', 'Play']
     """
     found = []
 
     def collect(text):
-        if _has_words(text) and text not in found:
-            found.append(text)
+        message, _ = message_of(text)
+        if _has_words(message) and message not in found:
+            found.append(message)
         return None
 
     _rewrite(markup, collect)
@@ -111,7 +150,8 @@ class translated_html(nodes.raw, addnodes.translatable):
         return list(self.get("original_messages", ()))
 
     def apply_translated_message(self, original_message: str, translated_message: str) -> None:
-        markup = _rewrite(self.astext(), lambda text: translated_message if text == original_message else None)
+        lookup = {original_message: translated_message}.get
+        markup = _rewrite(self.astext(), lambda text: localised(text, lookup))
         self.children = [nodes.Text(markup)]
         self.rawsource = markup
 
