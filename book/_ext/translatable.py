@@ -103,13 +103,14 @@ def _rewrite(markup: str, translate) -> str:
     ``translate(text)`` gets the unescaped text and returns the new text, or None to keep it.
     """
     def replace(match):
+        text = html.unescape(match.group("text" if match.group("tag") else "value")).strip()
+        new = translate(text)
+        if new is None or new == text:
+            return match.group(0)
         if match.group("tag"):
-            new = translate(html.unescape(match.group("text")).strip())
-            return match.group(0) if new is None else \
-                f'{match.group("open")}{html.escape(new, quote=False)}{match.group("close")}'
-        new = translate(html.unescape(match.group("value")).strip())
+            return f'{match.group("open")}{html.escape(new, quote=False)}{match.group("close")}'
         quote = match.group("quote")
-        return match.group(0) if new is None else f'{match.group("name")}{quote}{html.escape(new)}{quote}'
+        return f'{match.group("name")}{quote}{html.escape(new)}{quote}'
 
     parts = _SCRIPT.split(markup)
     # split() with two groups yields [text, script, tag name, text, script, tag name, ...]
@@ -202,8 +203,9 @@ def _page_catalogue(transform):
 
 
 class TranslateLiteralNodes(SphinxTransform):
-    """In a translated edition: a display equation, a text diagram or raw HTML of the page takes its
-    msgstr as its text, as it stands (see the module's docstring); just before Sphinx's ``Locale``."""
+    """In a translated edition, just before Sphinx's ``Locale``: a display equation, a text diagram or
+    raw HTML of the page takes its msgstr as its text, as it stands (see the module's docstring), and
+    an output's words (:class:`translated_html`) their translations."""
 
     default_priority = 19
 
@@ -213,6 +215,13 @@ class TranslateLiteralNodes(SphinxTransform):
         catalogue = _page_catalogue(self)
         if catalogue is None:
             return
+        # an output's words, here rather than in Locale: Locale's first pass marks a node "translated"
+        # after each message whose translation is the message itself ("alpha", "nfev"), and its second
+        # pass then skips the node's other messages
+        for node in self.document.findall(translated_html):
+            node.preserve_original_messages()
+            for message in node.extract_original_messages():
+                node.apply_translated_message(message, catalogue.gettext(message))
         for node in list(self.document.findall(
                 lambda n: isinstance(n, LITERAL_TYPE_NODES) and not isinstance(n, addnodes.translatable)
                 and is_translatable(n))):
