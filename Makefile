@@ -66,11 +66,12 @@ book: $(STAMP)
 
 # After editing a page: bring every translation's catalogue in step with the sources (new messages
 # empty, changed ones fuzzy), then translate what `tests/test_translations.py` lists.
-# (The templates are built in their own folder: a gettext build must not share the site's doctrees.)
+# (The templates are built in their own folder: a gettext build must not share the site's doctrees;
+# and every page is read again, --all, since the book's extensions (book/_ext) decide what is a message.)
 translations: $(STAMP)
 	@mkdir -p _build/gettext-build
 	$(BIN)/python book/_ext/editions.py config en > _build/gettext-build/_config.yml
-	$(BIN)/jupyter-book build . -q --builder custom --custom-builder gettext \
+	$(BIN)/jupyter-book build . -q --all --builder custom --custom-builder gettext \
 	  --config _build/gettext-build/_config.yml --path-output _build/gettext-build
 	@# the templates' source locations, relative to their folder two levels below this one, as in the catalogues
 	find _build/gettext-build/_build/gettext -name '*.pot' -exec sed -i 's|^#: \.\./\.\./\.\./\.\./|#: ../../|; s| \.\./\.\./\.\./\.\./| ../../|g' {} +

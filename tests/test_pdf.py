@@ -438,3 +438,17 @@ def test_the_vietnamese_edition_is_printed_too(pdf, pages):
         if NOTES[kind] in " ".join(pages):                  # the English PDF has this note, so must this one
             assert typographic(note.split("{chapter}")[0]) in text, kind
     assert "$" not in text and "\\frac" not in text
+
+
+def test_both_pdfs_print_the_same_display_equations(pdf):
+    """The single pages that ``make pdf`` prints show, edition for edition, the same display equations
+    (as tests/test_translations.py checks page by page on the site): none lost to ``::``."""
+    from print_pdf import root_document
+
+    from .test_translations import translations
+
+    page = f"{root_document()}.html"                     # the single page: the root document's
+    english = translations.display_equations((ROOT / "_build" / "singlehtml" / page).read_text())
+    vietnamese = translations.display_equations((ROOT / "_build" / "vi" / "_build" / "singlehtml" / page).read_text())
+    assert english and not [tex for tex in vietnamese if tex in ("", "::")]
+    assert english == vietnamese

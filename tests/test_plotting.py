@@ -13,9 +13,9 @@ import pytest
 
 from closedloop import simulate
 from closedloop.four_bar import parameter_values
-from closedloop.plotting import (animate_four_bar, animate_slider_crank, four_bar_points, plot_basin_map,
-                                 plot_slider_crank, slider_crank_points)
-from closedloop.slider_crank import CASES, initial_state
+from closedloop.plotting import (animate_four_bar, animate_slider_crank, case_summary, four_bar_points,
+                                 plot_basin_map, plot_slider_crank, slider_crank_points)
+from closedloop.slider_crank import CASES, classify_motion, initial_state
 from closedloop.studies.basin import basin_map, grid_values
 
 from .conftest import PARALLELOGRAM
@@ -291,3 +291,21 @@ def test_a_case_without_a_successful_run_is_named_not_a_zero_division():
     failed = [dict(row, status="failed: made up") if row["case"] == 3 else row for row in rows]
     with pytest.raises(ValueError, match=r"^case 3: no run of the study succeeded"):
         work_precision_figure(failed, 3)
+
+
+def test_case_summary_states_the_runs_own_numbers(slider_crank):
+    """Chapter 6's summary of a case: the computed motion beside the paper's, and the run's extremes."""
+    case = CASES[4]
+    result = simulate(slider_crank, initial_state(slider_crank, case.phi0, case.dphi0), 6.0,
+                      t_eval=np.linspace(0, 6, 601), rtol=1e-8, atol=1e-8)
+    lines = case_summary(result, case, slider_crank).splitlines()
+    phi, dphi, x = result.coordinate("phi"), result.velocity("phi"), result.coordinate("x")
+    energy = slider_crank.energy(result.s, result.sd)
+    swing = np.max(np.abs(phi - case.phi0))
+    assert lines[0] == "case 4: phi0 = 3.1416 rad, dphi0 = 1.5 rad/s"
+    assert lines[1] == f"  computed motion: {classify_motion(result)}   (paper: full rotation)"
+    assert f"= {swing:.3f} rad = {swing / (2 * math.pi):.2f} revolutions" in lines[2]
+    assert f"between {dphi.min():.3f} and {dphi.max():.3f} rad/s, final phi' = {dphi[-1]:.3f}" in lines[3]
+    assert lines[4] == f"  x_C between {x.min():.3f} and {x.max():.3f} m"
+    assert lines[5] == f"  T + Pi: {energy[0]:.1f} J at t = 0, {energy[-1]:.1f} J at t = 6 s"
+    assert lines[6].startswith(f"  max |f| = {result.max_constraint_error:.1e} m, {result.nfev} evaluations")

@@ -11,10 +11,31 @@ build):
 - no digit is typed by hand in the sentence outside math, code, roles and links, except the input
   numbers the claim lists (a time span, a case number): a result retyped beside or instead of the
   glued value fails.
+
+Each entry of `BOUNDS` is a comparison that a sentence states ("|f| never exceeds X", "stays within
+X times the tolerance", "lies between 3/2 and 2", "case 1 brings more than the deficit"); the test
+checks it against the build's own run of the chapter (its executed notebook in the execution
+cache, so it needs the built book): ``(chapter, words of the sentence, left, relation, right)``
+reads "left relation right", with relation one of ``<``, ``<=``, ``>``, ``>=``. Each side is
+
+- a glue key: on the left its exact glued value; on the right the value *as the sentence prints
+  it*, formatted with the sentence's own format spec (``{glue:text}`key:.2f```), which the sentence
+  must paste. A bound is glued from ``closedloop.plotting.rounded_bound``, which rounds up an upper
+  bound (down a lower one) with the digits the page prints, so it holds for the value and for the
+  value as printed;
+- ``Printed(pattern, scale)``: every number the chapter's code cells print that the pattern's
+  first group matches (times ``scale``), each of which must satisfy the relation; a pattern that
+  matches nothing fails;
+- a number: an input of the sentence (``1.5`` for "3/2").
+
+To check a new sentence: glue its bound with `rounded_bound` in a hidden cell and add an entry.
 """
 
 import functools
+import math
+import operator
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
@@ -33,6 +54,8 @@ CLAIMS = [
      "Both exponents", ()),
     ("02-lagrange-multipliers.md", "ch02-velocity-drift-exponent",
      "Both exponents", ()),
+    ("03-baumgarte.md", "ch03-residual-ratio",
+     "lowers the largest", ()),
     ("03-baumgarte.md", "ch03-nfev-doubling",
      "Larger gains cost more right-hand-side evaluations", ("10", "20")),
     ("03-baumgarte.md", "ch03-largest-alpha-h",
@@ -48,14 +71,20 @@ CLAIMS = [
     ("04-orthogonality.md", "ch04-call-time-ratio",
      "the orthogonal right-hand side does more work per call", ()),
     ("04-orthogonality.md", "ch04-largest-multiplier",
-     "the constraint forces reach", ("2",)),
+     "the constraint forces reach", ()),
+    ("04-orthogonality.md", "ch04-largest-power",
+     "the constraint forces reach", ()),
     ("04-orthogonality.md", "ch04-largest-cond-phi-z",
      "is well conditioned all the way round", ()),
+    ("05-slider-crank-model.md", "ch05-ripple-share",
+     "Next to the mean it is tiny", ()),
     ("05-slider-crank-model.md", "ch05-gas-per-stroke",
      "One outward stroke takes out", ()),
     ("05-slider-crank-model.md", "ch05-torque-per-turn",
      "One outward stroke takes out", ()),
     ("06-four-cases.md", "ch06-case1-excursion",
+     "swings up beyond the horizontal on the other side", ()),
+    ("06-four-cases.md", "ch06-three-quarter-turn",
      "swings up beyond the horizontal on the other side", ()),
     ("06-four-cases.md", "ch06-case2-slowest",
      "Starting with the potential energy of the top", ()),
@@ -91,6 +120,10 @@ CLAIMS = [
      "Both swings decay and then freeze", ("1", "3")),
     ("06-four-cases.md", "ch06-case3-sticks-at",
      "Both swings decay and then freeze", ("1", "3")),
+    ("06-four-cases.md", "ch06-top-bar",
+     "the bar stands at", ("1.5", "4", "1")),
+    ("06-four-cases.md", "ch06-case1-kinetic",
+     "the bar stands at", ("1.5", "4", "1")),
     ("06-four-cases.md", "ch06-case3-torque-push",
      "in case 3 only just", ("3",)),
     ("10-singularities-and-switches.md", "ch10-det-agreement",
@@ -245,6 +278,62 @@ CLAIMS = [
      "The rule lies inside the stable region", ()),
 ]
 
+@dataclass(frozen=True)
+class Printed:
+    """The numbers a chapter's code cells print that ``pattern``'s first group matches, times ``scale``."""
+
+    pattern: str
+    scale: float = 1.0
+
+
+#: (chapter file, words of the sentence, left, relation, right): "left relation right" must hold
+#: in the build's run of the chapter; see the module's docstring.
+BOUNDS = [
+    ("02-lagrange-multipliers.md", "Both exponents", "ch02-position-drift-exponent", ">", 1.5),
+    ("02-lagrange-multipliers.md", "Both exponents", "ch02-position-drift-exponent", "<", 2.0),
+    ("02-lagrange-multipliers.md", "Both exponents", "ch02-velocity-drift-exponent", ">", 0.5),
+    ("02-lagrange-multipliers.md", "Both exponents", "ch02-velocity-drift-exponent", "<", 1.0),
+    ("03-baumgarte.md", "a little less than linearly", "ch03-nfev-doubling", "<", 2.0),
+    ("03-baumgarte.md", "In every row", Printed(r"^(?:Baumgarte|step rule).*\s(\d+\.\d\d)\s+\d+$"),
+     "<=", "ch03-largest-alpha-h"),
+    ("04-orthogonality.md", "both hold", Printed(r"^(?:orthogonal|baumgarte)\s+\d+\s+\S+\s+(\S+)", 1e9),
+     "<=", "ch04-residual-over-tolerance"),
+    ("04-orthogonality.md", "both stay within", Printed(r"^(?:orthogonal|baumgarte)\s+\d+\s+\S+\s+\S+\s+(\S+)", 1e9),
+     "<=", "ch04-distance-over-tolerance"),
+    ("04-orthogonality.md", "yet their power", Printed(r"max \|lambda\^T Phi_s s'\| = (\S+) W"),
+     "<=", "ch04-largest-power"),
+    ("04-orthogonality.md", "is well conditioned all the way round",
+     Printed(r"cond\(Phi_z\) between \S+ and (\S+)$"), "<=", "ch04-largest-cond-phi-z"),
+    ("06-four-cases.md", "swings up beyond the horizontal", "ch06-case1-excursion", ">", math.pi),
+    ("06-four-cases.md", "swings up beyond the horizontal", "ch06-case1-excursion", "<", "ch06-three-quarter-turn"),
+    ("06-four-cases.md", "Starting with the potential energy of the top",
+     Printed(r"^case 2: .*\n.*\n.*\n  phi' between (\S+) and"), ">=", "ch06-case2-slowest"),
+    ("06-four-cases.md", "the speed dips on every",
+     Printed(r"^case 4: .*\n.*\n.*\n  phi' between (\S+) and"), ">=", "ch06-case4-slowest"),
+    ("06-four-cases.md", "In all four runs", Printed(r"max \|f\| = (\S+) m"), "<=", "ch06-largest-residual"),
+    ("06-four-cases.md", "The two matches of `thousands-opposing` are hollow",
+     Printed(r"sticks\xa0at\xa0\S+-(\d+\.\d+)\xa0s"), "<=", "ch06-thousands-stuck-by"),
+    ("06-four-cases.md", "With thousands it does so beside a huge torque",
+     Printed(r"runs\xa0away\xa0at\xa0\S+-(\d+\.\d+)\xa0s"), "<=", "ch06-printed-runaway-by"),
+    ("06-four-cases.md", "Read as decimals, that deficit", Printed(r"gravity: Pi between -(\S+) and"),
+     "<=", "ch06-gravity-amplitude"),
+    ("06-four-cases.md", "Read as decimals, that deficit", Printed(r"gravity: Pi between \S+ and (\S+) J"),
+     "<=", "ch06-gravity-amplitude"),
+    ("06-four-cases.md", "Case 1 brings more", Printed(r"case 1: initial kinetic energy T = (\S+) J"),
+     ">", "ch06-deficit"),
+    ("06-four-cases.md", "Case 1 brings more", Printed(r"case 3: initial kinetic energy T = (\S+) J"),
+     "<", "ch06-deficit"),
+    ("06-four-cases.md", "in case 3 only just", "ch06-case3-torque-push", ">", 0.0),
+    ("06-four-cases.md", "the bar stands at", "ch06-largest-kinetic", ">", "ch06-top-bar"),
+    ("06-four-cases.md", "the bar stands at", "ch06-case1-kinetic", "<", "ch06-top-bar"),
+    ("07-conclusions.md", "Notice: the balance (7.b) holds to", Printed(r"^\s+\d\s+\S+\s+\S+\s+\S+\s+(\d\.\d+e[-+]\d+)\s+(?:osc|full)"),
+     "<=", "ch07-largest-balance-residual"),
+    ("07-conclusions.md", "This neglects only the torque ripple",
+     Printed(r"at most 2 pi \* \S+ = (\S+) J per turn"), "<=", "ch07-ripple-per-turn"),
+    ("07-conclusions.md", "The torque per turn and the gas per stroke agree to within",
+     Printed(r"torque per turn - gas per stroke: [+-]?(\S+) J"), "<=", "ch07-turn-stroke-gap"),
+]
+
 #: What may hold digits without being a typed result: display and inline math, inline code,
 #: roles with their content (glue, ref, doc, cite, ...), Markdown links, and equation numbers
 #: written as the book writes them, "(26)" or "(7.b)".
@@ -301,6 +390,87 @@ def defines(code, key):
             if re.fullmatch(re.sub(r"\{[^}]*\}", r"[^-]+", pattern), key):
                 return True
     return False
+
+
+_RELATIONS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
+
+
+def executed(chapter, site):
+    """The build's run of a chapter: its notebook with outputs, from the execution cache."""
+    import jupytext
+    from jupyter_cache import get_cache
+
+    try:
+        _, notebook = get_cache(site.parent / ".jupyter_cache").merge_match_into_notebook(
+            jupytext.read(ROOT / "chapters" / chapter))
+    except KeyError:
+        pytest.fail(f"{chapter}: the build's execution cache holds no run of this page's current source")
+    return notebook
+
+
+def glued(notebook, key):
+    """The value the run glued under ``key``."""
+    for cell in notebook.cells:
+        for output in cell.get("outputs", []):
+            if output.get("metadata", {}).get("scrapbook", {}).get("name") == key:
+                return eval(output["data"]["application/papermill.record/text/plain"], {"np": __import__("numpy")})
+    raise AssertionError(f"no cell of the run glues {key!r}")
+
+
+def printed(notebook):
+    """Every text the run's code cells print: streams, plain-text and Markdown results."""
+    for cell in notebook.cells:
+        for output in cell.get("outputs", []):
+            if output.get("output_type") == "stream":
+                yield output["text"]
+            for mime in ("text/plain", "text/markdown"):
+                if mime in output.get("data", {}) and "scrapbook" not in output.get("metadata", {}):
+                    yield "".join(output["data"][mime])
+
+
+def as_printed(markdown, key, value):
+    """``value`` as the chapter's prose prints the glued ``key``: with its format spec, read back."""
+    specs = {spec for source in markdown
+             for spec in re.findall(r"\{glue(?::text)?\}`" + re.escape(key) + r"(?::([^`]*))?`", source)}
+    assert len(specs) == 1, f"the prose pastes {key} with {len(specs)} format specs: {specs}"
+    text = format(value, specs.pop())
+    return float(text.rstrip("%")) / 100 if text.endswith("%") else float(text)
+
+
+def side(value, notebook, markdown, left):
+    """The numbers one side of a bound stands for (see the module's docstring)."""
+    if isinstance(value, Printed):
+        found = [float(number) * value.scale for text in printed(notebook)
+                 for number in re.findall(value.pattern, text, re.M)]
+        assert found, f"no printed output matches {value.pattern!r}"
+        return found
+    if isinstance(value, str):
+        exact = glued(notebook, value)
+        return [exact] if left else [as_printed(markdown, value, exact)]
+    return [float(value)]
+
+
+@pytest.mark.parametrize("chapter, words, left, relation, right", BOUNDS,
+                         ids=[f"{b[0][:2]}-{b[2] if isinstance(b[2], str) else 'printed'}{b[3]}{b[4]}"
+                              for b in BOUNDS])
+def test_a_stated_bound_holds_for_the_values_it_bounds(chapter, words, left, relation, right, built_site):
+    """"|f| never exceeds 4.5e-09 m" above runs that print 4.4e-09: checked on the build's own run."""
+    markdown, _ = markdown_and_code(chapter)
+    sentence_with(markdown, words)                 # the sentence that states it is still there
+    notebook = executed(chapter, built_site)
+    bound, = side(right, notebook, markdown, left=False)
+    values = side(left, notebook, markdown, left=True)
+    broken = [value for value in values if not _RELATIONS[relation](value, bound)]
+    assert not broken, f"{chapter}: '{words}' states {left} {relation} {right} = {bound:g}, but {broken}"
+
+
+def test_the_bound_checks_see_a_broken_bound():
+    """A bound rounded to nearest below the printed value fails, the same one rounded up passes."""
+    markdown = ("Both hold it to at most {glue:text}`ch04-x:.1f` times.",)
+    assert as_printed(markdown, "ch04-x", 2.349) == 2.3
+    assert not _RELATIONS["<="](2.35, as_printed(markdown, "ch04-x", 2.349))
+    assert _RELATIONS["<="](2.35, as_printed(markdown, "ch04-x", 2.4))
+    assert as_printed(("{glue:text}`ch06-y:.0%` of it",), "ch06-y", 0.504) == 0.5
 
 
 @pytest.mark.parametrize("chapter, key, words, allowed", CLAIMS, ids=[c[1] for c in CLAIMS])

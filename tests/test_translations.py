@@ -126,7 +126,7 @@ def test_catalogues_are_in_step_with_the_sources(built_site):
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "_config.yml").write_text(yaml.safe_dump(editions.edition_config("en"), allow_unicode=True))
     jupyter_book = Path(sys.executable).with_name("jupyter-book")
-    run = subprocess.run([str(jupyter_book), "build", ".", "-q", "--builder", "custom", "--custom-builder", "gettext",
+    run = subprocess.run([str(jupyter_book), "build", ".", "-q", "--all", "--builder", "custom", "--custom-builder", "gettext",
                           "--config", str(folder / "_config.yml"), "--path-output", str(folder)],
                          cwd=ROOT, capture_output=True, text=True, timeout=900)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
@@ -165,3 +165,93 @@ def test_the_vietnamese_pages_are_vietnamese(built_site):
             if hits >= 2 and hits >= 0.1 * len(words):
                 found.setdefault(page, []).append(block.get_text(" ")[:100])
     assert found == {}, "paragraphs of the Vietnamese edition that read as English"
+
+
+def test_every_page_shows_the_same_display_equations_in_both_editions(built_site):
+    """Each page's display equations, in the order the page shows them, are those of the English page:
+    as many, the same TeX outside the words of ``\\text{}``, none empty and none ``::`` (what a
+    translated equation became when Sphinx parsed its msgstr as reStructuredText, issue 36)."""
+    differ = {}
+    for page in toc_pages():
+        english = translations.display_equations((built_site / f"{page}.html").read_text(encoding="utf-8"))
+        vietnamese = translations.display_equations((built_site / "vi" / f"{page}.html").read_text(encoding="utf-8"))
+        broken = [tex for tex in vietnamese if tex in ("", "::")]
+        if broken or english != vietnamese:
+            differ[page] = (f"{len(english)} equations in English, {len(vietnamese)} in Vietnamese, "
+                            f"{len(broken)} empty or '::'; first difference: "
+                            f"{next(((e, v) for e, v in zip(english, vietnamese) if e != v), None)}")
+    assert differ == {}
+
+
+def test_the_equation_comparison_sees_a_lost_equation():
+    page = ('<div class="math">\\[\na = b \\qquad\\text{or}\\qquad c = d\n\\]</div>'
+            '<div class="math">\\[::\\]</div>')
+    assert translations.display_equations(page) == ["a = b \\qquad\\text{}\\qquad c = d", "::"]
+    translated = page.replace("\\text{or}", "\\text{hoặc}")
+    assert translations.display_equations(translated) == translations.display_equations(page)
+
+
+def output_words(page_html):
+    """The words a reader meets in a built page's code-cell outputs, in order: the headings and captions
+    of tables, the labels of the animations' player, every alt, title and aria-label."""
+    from bs4 import BeautifulSoup
+
+    soup = BeautifulSoup(page_html, "html.parser")
+    words = []
+    for output in soup.select("article div.cell_output"):
+        for script in output.select("script, style"):
+            script.decompose()
+        for node in output.find_all(True):
+            if node.name in ("th", "caption", "label"):
+                words.append(node.get_text().strip())
+            words += [node[name].strip() for name in ("alt", "title", "aria-label") if node.has_attr(name)]
+    return [word for word in words if re.search(r"[^\W\d_]{2}", word)]
+
+
+def test_the_words_of_the_outputs_are_translated(built_site):
+    """The editions share one execution, so their outputs are English; the Vietnamese pages show the
+    catalogue's translation of every heading, alt text and player label of them (book/_ext/translatable.py),
+    and the code cells' buttons in Vietnamese."""
+    editions, translatable = _load("editions"), _load("translatable")
+    wrong, buttons = {}, {}
+    for page in toc_pages():
+        english = output_words((built_site / f"{page}.html").read_text(encoding="utf-8"))
+        vietnamese_html = (built_site / "vi" / f"{page}.html").read_text(encoding="utf-8")
+        vietnamese = output_words(vietnamese_html)
+        catalogue = {message.id: message.string for message in translations.read_catalog(LOCALE / f"{page}.po")
+                     if message.id and message.string and not message.fuzzy}
+        # a figure's alt text is a message as it stands (Sphinx's own); an HTML output's words have their
+        # numbers as parameters
+        expected = [catalogue.get(word) or translatable.localised(word, catalogue.get) for word in english]
+        shown = [(word, wanted, seen) for word, wanted, seen in zip(english, expected, vietnamese) if seen != wanted]
+        if len(english) != len(vietnamese) or shown:
+            wrong[page] = (len(english), len(vietnamese), shown[:3])
+        left = [word for word in editions.EDITIONS["vi"]["interface"] if word in vietnamese_html]
+        if left:
+            buttons[page] = left
+    assert wrong == {}, "pages whose outputs' words are not the catalogue's: (count, count, first mismatches)"
+    assert buttons == {}, "English buttons of code cells on Vietnamese pages"
+
+
+def test_the_output_words_are_read_and_put_back():
+    """The extension finds the words of an HTML output and puts a translation back in their place only."""
+    translatable = _load("translatable")
+    html = ('<table class="closedloop-table"><thead><tr><th class="num">max |f| [m]</th><th>case</th></tr>'
+            '</thead><tbody><tr><td>case</td></tr></tbody></table><img alt="A &quot;flat&quot; line">'
+            '<button title="Play" aria-label="Play"></button><label for="r">Once</label>'
+            '<script>var title="Play";</script>')
+    assert translatable.html_messages(html) == ["max |f| [m]", "case", 'A "flat" line', "Play", "Once"]
+    node = translatable.translated_html(html, html, format="html")
+    node.preserve_original_messages()
+    node.apply_translated_message("case", "trường hợp")
+    node.apply_translated_message("Play", "Phát")
+    node.apply_translated_message('A "flat" line', 'Một đường "phẳng"')
+    assert node.astext() == html.replace("<th>case</th>", "<th>trường hợp</th>").replace(
+        '"Play" aria-label="Play"', '"Phát" aria-label="Phát"').replace(
+        "A &quot;flat&quot; line", "Một đường &quot;phẳng&quot;")
+    assert node.extract_original_messages() == ["max |f| [m]", "case", 'A "flat" line', "Play", "Once"]
+    numbered = translatable.translated_html("", '<th>rtol = 1e-06</th><th>rtol = 1e-09</th>', format="html")
+    numbered.preserve_original_messages()
+    assert numbered.extract_original_messages() == ["rtol = {1}"]            # one message for both values
+    numbered.apply_translated_message("rtol = {1}", "dung sai {1}")
+    assert numbered.astext() == "<th>dung sai 1e-06</th><th>dung sai 1e-09</th>"

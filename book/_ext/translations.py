@@ -8,7 +8,7 @@ A message is right when
 
 - it is translated: its ``msgstr`` is not empty and not fuzzy;
 - it keeps the source's markup: the same inline code, math, citations, glued values, cross-reference
-  targets and link targets, as many times each (display texts of references are translated; their
+  targets, link targets and parameters ``{1}`` of an output's words, as many times each (display texts of references are translated; their
   targets are not); a display equation stays the same equation, only the words of its ``\text{}``
   may be translated;
 - it uses the glossary's terms: where the English text names a term of ``book/glossary.md`` (the
@@ -37,6 +37,8 @@ CODE = re.compile(r"(?<![`}])`(?P<body>[^`]+)`")
 DISPLAY_MATH = re.compile(r"\$\$.+?\$\$", re.S)
 INLINE_MATH = re.compile(r"(?<![\\$])\$(?!\$)(?P<body>[^$]+?)(?<!\\)\$")
 LINK_TARGET = re.compile(r"\]\((?P<target>[^)\s]+)\)")
+#: A number of an output's words, a parameter of its message (book/_ext/translatable.py): ``{1}``.
+PLACEHOLDER = re.compile(r"(?<![{\w])\{\d+\}(?![}`])")
 TARGET = re.compile(r"<(?P<target>[^<>]+)>\s*$")
 #: Roles whose text is shown to the reader and may be translated; only their ``<target>`` must stay.
 DISPLAY_ROLES = {"ref", "numref", "doc", "term", "download", "eq"}
@@ -74,12 +76,14 @@ def markup(text: str) -> Counter:
         parts[match.group(0)] += 1
     for match in LINK_TARGET.finditer(rest):
         parts[f"]({match.group('target')})"] += 1
+    for match in PLACEHOLDER.finditer(rest):
+        parts[match.group(0)] += 1
     return parts
 
 
 def prose(text: str) -> str:
     """``text`` without its markup: the words a reader reads."""
-    for pattern in (ROLE, DISPLAY_MATH, INLINE_MATH, CODE, LINK_TARGET):
+    for pattern in (ROLE, DISPLAY_MATH, INLINE_MATH, CODE, LINK_TARGET, PLACEHOLDER):
         text = pattern.sub(" ", text)
     return text
 
@@ -166,6 +170,24 @@ def problems(path: Path, terms: list[Term] | None = None) -> list[Problem]:
             if term.pattern().search(english) and normal(term.vietnamese) not in translated:
                 say(f"the glossary's '{term.vietnamese}' for '{term.english}' is not used")
     return found
+
+
+def display_equations(page_html: str) -> list[str]:
+    """The display equations of a built page (site or single page), in order, each as the TeX it shows
+    with the words of its ``\\text{}`` left out: the same list in every edition of a page.
+
+    An equation whose translated TeX was lost shows as ``::`` or nothing; it is kept as it is, so
+    that the comparison with the source edition sees it.
+    """
+    from bs4 import BeautifulSoup
+
+    soup = BeautifulSoup(page_html, "html.parser")
+    equations = []
+    for node in soup.select("div.math"):
+        tex = node.get_text().strip()
+        tex = re.sub(r"^\\\[|\\\]$", "", tex).strip()
+        equations.append(" ".join(TEXT_IN_MATH.sub(r"\\text{}", tex).split()))
+    return equations
 
 
 def catalogues(locale: Path) -> dict[str, Path]:

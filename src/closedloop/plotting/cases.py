@@ -1,11 +1,51 @@
-"""Paper-style figures of one slider-crank run (figures 3-14 of the paper).
+"""One slider-crank run of the paper's cases: its figure (figures 3-14 of the paper) and its key numbers.
 
 matplotlib is imported inside the functions only, so simulating never pulls it in.
 """
 
 from __future__ import annotations
 
-__all__ = ["plot_slider_crank"]
+import numpy as np
+
+__all__ = ["plot_slider_crank", "case_summary"]
+
+
+def case_summary(result, case, system):
+    """The outcome and the key numbers of one run of a paper's case, as lines of text (chapter 6).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run of the slider-crank from the case's start.
+    case : closedloop.slider_crank.Case
+        The case run: its start and the paper's finding.
+    system : System
+        The slider-crank the run integrated, for its energy T + Pi.
+
+    Returns
+    -------
+    str
+        The case and its start; the computed motion (:func:`~closedloop.slider_crank.classify_motion`)
+        beside the paper's finding; the largest excursion of the crank, in rad and in revolutions;
+        the ranges of phi' and x_C and the final phi'; T + Pi at the start and at the end; the
+        largest |f| of (32), the number of evaluations and the CPU time.
+    """
+    from ..slider_crank import classify_motion
+
+    phi, dphi = result.coordinate("phi"), result.velocity("phi")
+    x = result.coordinate("x")
+    energy = system.energy(result.s, result.sd)                                   # T + Pi
+    swing = float(np.max(np.abs(phi - case.phi0)))
+    return "\n".join([
+        f"case {case.number}: phi0 = {case.phi0:.4f} rad, dphi0 = {case.dphi0:g} rad/s",
+        f"  computed motion: {classify_motion(result)}   (paper: {case.finding})",
+        f"  max |phi - phi0| = {swing:.3f} rad = {swing / (2 * np.pi):.2f} revolutions",
+        f"  phi' between {dphi.min():.3f} and {dphi.max():.3f} rad/s, final phi' = {dphi[-1]:.3f} rad/s",
+        f"  x_C between {x.min():.3f} and {x.max():.3f} m",
+        f"  T + Pi: {energy[0]:.1f} J at t = 0, {energy[-1]:.1f} J at t = {result.t[-1]:g} s",
+        f"  max |f| = {result.max_constraint_error:.1e} m, {result.nfev} evaluations, "
+        f"{result.cpu_time:.2f} s CPU",
+    ])
 
 
 def plot_slider_crank(result, title=None):

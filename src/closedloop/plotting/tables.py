@@ -2,19 +2,16 @@
 
 A notebook shows the object's ``_repr_html_`` (a real ``<table>`` that fits the text column), and
 a terminal or a plain-text output its ``__repr__`` (columns aligned with spaces).
-
-:func:`rounded_bound` rounds a number that the prose states as a bound, on the side that keeps it one.
+:func:`rounded_bound` rounds a bound that a sentence states beside such printed numbers.
 """
 
 from __future__ import annotations
 
-import decimal
 import html
 import math
 import numbers
 from collections.abc import Callable, Sequence
-
-__all__ = ["Table", "rounded_bound", "MISSING"]
+from decimal import Decimal
 
 #: What a cell holding ``None`` shows.
 MISSING = "-"
@@ -96,40 +93,53 @@ def _format(value, spec) -> str:
     return format(value, spec)
 
 
-def rounded_bound(value: float, digits: int = 1, upper: bool = True) -> float:
-    """``value`` rounded to ``digits`` significant digits on the side that keeps a bound a bound.
+def rounded_bound(value, spec, upper=True):
+    """``value`` rounded in the safe direction to the digits that ``format(value, spec)`` shows.
 
-    A sentence such as "|f| stays below 3e-10 m" states an upper bound; printed with ``.0e`` from
-    the value itself, 2.6e-10 would read 3e-10 but 2.4e-10 would read 2e-10, which the value
-    exceeds. Rounded here first (up for an upper bound, down for a lower one), the number printed
-    with ``digits`` significant digits (``.{digits - 1}e``) still bounds the value.
+    A sentence that states a bound beside printed numbers ("|f| stays at most 2.36e-09 m" above a
+    table printing ``2.35e-09``) must hold for the value and for the value as printed. Rounding to
+    nearest can break it (2.356 printed with ``.2f`` is 2.36, but "below 2.35" is false); this
+    rounds an upper bound up and a lower bound down, with the same digits, so that the bound,
+    printed with ``spec``, is at least (at most) both the value and the value printed with ``spec``.
 
     Parameters
     ----------
     value : float
-        The value the prose bounds.
-    digits : int, optional
-        Significant digits of the printed bound (1 by default).
+        The value the bound is for: the largest of the values bounded, or for a lower bound the
+        smallest.
+    spec : str
+        The format specification the page prints the bound with (``".2f"``, ``".1e"``, ``".0%"``).
     upper : bool, optional
-        True (the default) for an upper bound ("below", "at most", "within"), rounded up;
-        False for a lower bound ("at least", "more than"), rounded down.
+        True (default) for an upper bound, rounded up; False for a lower bound, rounded down.
 
     Returns
     -------
     float
-        The rounded bound; 0, infinities and NaN are returned unchanged.
+        The bound, which ``format(bound, spec)`` prints exactly.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not finite.
 
     Examples
     --------
-    >>> rounded_bound(2.4e-10), rounded_bound(2.4e-10, upper=False), rounded_bound(0.0123, digits=2)
-    (3e-10, 2e-10, 0.013)
+    >>> rounded_bound(2.3456e-9 / 1e-9, ".2f"), rounded_bound(4.41e-9, ".1e")
+    (2.35, 4.5e-09)
+    >>> rounded_bound(0.9687, ".3f", upper=False), format(rounded_bound(0.3401, ".0%"), ".0%")
+    (0.968, '35%')
     """
-    if isinstance(digits, bool) or not isinstance(digits, int) or digits < 1:
-        raise ValueError(f"digits: need a positive whole number of significant digits, got {digits!r}")
     value = float(value)
-    if value == 0.0 or not math.isfinite(value):
-        return value
-    exact = decimal.Decimal(repr(value))    # the shortest decimal that is this float: 3e-12 stays 3e-12
-    quantum = decimal.Decimal(1).scaleb(exact.adjusted() - digits + 1)
-    rounded = exact.quantize(quantum, rounding=decimal.ROUND_CEILING if upper else decimal.ROUND_FLOOR)
-    return float(rounded)
+    if not math.isfinite(value):
+        raise ValueError(f"value must be finite, got {value!r}")
+    text = format(value, spec)
+    percent = text.endswith("%")
+    shown = Decimal(text.rstrip("%"))
+    step = Decimal(1).scaleb(shown.as_tuple().exponent)
+    if percent:
+        shown, step = shown / 100, step / 100
+    if upper and float(shown) < value:
+        shown += step
+    elif not upper and float(shown) > value:
+        shown -= step
+    return float(shown)

@@ -1,0 +1,273 @@
+"""What Sphinx's gettext leaves out of a translated edition of this book, put through the page's catalogue.
+
+The English sources are the only source of content; a translated edition (``book/_ext/editions.py``)
+takes every word from the page's gettext catalogue, ``locales/<language>/LC_MESSAGES/<page>.po``.
+Sphinx's gettext handles paragraphs, titles and captions. Three kinds of text need this extension.
+
+**Display equations and text diagrams, translated without being parsed again.** Sphinx translates a
+"literal" node (a display equation, a code block, raw HTML) by parsing ``"::\\n\\n   " + msgstr``, the
+reStructuredText for a literal block. Under MyST that text is a paragraph ``::`` followed by an
+indented code block, and the node becomes ``::``: an equation whose ``\\text{...}`` was translated
+rendered as ``\\[::\\]`` on the site and ``::`` in the PDF, while an equation left untranslated
+(msgstr = msgid) showed correctly. Here the msgstr of such a node is its new text as it stands,
+set before Sphinx's own ``Locale`` transform runs. A literal block with the class ``diagram``
+(``{code-block} text`` with ``:class: diagram``, the intro's chapter diagram) is translatable too:
+its lines are a message of the page.
+
+**The words of code cells' outputs.** The editions share one execution, whose outputs are English.
+The words a reader meets in them are messages of the page's catalogue, like its prose: the headings
+and caption of a table (``closedloop.plotting.Table``), every ``alt``, ``title`` and ``aria-label`` of
+an HTML output, the labels of the animations' player ("Once", "Loop", "Reflect"), and the ``alt`` of
+every figure (``:mystnb: {image: {alt: ...}}``). The numbers in an HTML output's words are the
+message's parameters ``{1}``, ``{2}``, ... (:func:`message_of`), so that a heading built from a
+value ("rtol = atol = 1e-06", a table's caption) does not change its message when the value
+changes; a translation keeps every parameter. An HTML output becomes a :class:`translated_html`
+node, Sphinx's ``addnodes.translatable``: the gettext build extracts its words (``make translations``
+writes them into the page's catalogue with everything else, and ``tests/test_translations.py`` lists
+the untranslated ones by page), and the translated edition puts each translation back in place.
+The gettext build is made to keep the outputs that the HTML build shows (MyST-NB would give it the
+plain-text ones), so the two see the same words. Everything else in an output (printed text,
+LaTeX, numbers, code, interactive figures) stays out of the catalogues: it is computed, and
+changes whenever the computation does.
+
+**The code cells' buttons.** MyST-NB's "Show code cell source" and its kin are written after the
+page is translated; they are looked up in ``EDITIONS[language]["interface"]`` of ``editions.py``,
+which also holds the edition's title and footer.
+"""
+
+from __future__ import annotations
+
+import html
+import re
+from pathlib import Path
+
+from docutils import nodes
+from sphinx import addnodes
+from sphinx.transforms import SphinxTransform
+from sphinx.transforms.post_transforms import SphinxPostTransform
+from sphinx.util.nodes import LITERAL_TYPE_NODES, is_translatable
+
+SOURCE_LANGUAGE = "en"
+#: The class that makes a literal block a translatable text diagram.
+DIAGRAM = "diagram"
+#: The words of an HTML output that a reader reads: an element's text, or an attribute's value.
+_WORDS = re.compile(r"(?P<open><(?P<tag>th|caption|label)\b[^>]*>)(?P<text>[^<]*)(?P<close></(?P=tag)\s*>)"
+                    r"""|(?P<name>\s(?:alt|title|aria-label)=)(?P<quote>["'])(?P<value>.*?)(?P=quote)""",
+                    re.I | re.S)
+#: Parts of an HTML output that hold no words for the reader.
+_SCRIPT = re.compile(r"(<(script|style)\b.*?</\2\s*>)", re.I | re.S)
+
+
+#: A number in an output's words: a parameter of its message, not part of it.
+#: (Not an exponent "m^2", a denominator "pi/2", nor an equation's number "(12)".)
+_NUMBER = re.compile(r"(?<![\w.^/])(?<!\()\d+(?:\.\d+)?(?:e[-+]?\d+)?(?![\w.])|(?<=\()\d+(?:\.\d+)?(?:e[-+]?\d+)?(?![\w.)])")
+_PLACE = re.compile(r"\{(\d+)\}")
+
+
+def _has_words(text: str) -> bool:
+    return re.search(r"[^\W\d_]{2,}", text) is not None
+
+
+def message_of(text: str) -> tuple[str, list[str]]:
+    """An output's words as a message and its numbers: each number becomes ``{1}``, ``{2}``, ...
+
+    The words of an output are often built from values ("rtol = atol = 1e-06", "Animation of the
+    slider-crank (Case 2)"); with the numbers as parameters the message stays the same when the
+    values change, and one translation serves every value.
+
+    >>> message_of("|f| at 1000 s, rtol = 1e-06, RK45")
+    ('|f| at {1} s, rtol = {2}, RK45', ['1000', '1e-06'])
+    """
+    numbers = []
+
+    def place(match):
+        numbers.append(match.group(0))
+        return "{%d}" % len(numbers)
+
+    return _NUMBER.sub(place, text), numbers
+
+
+def localised(text: str, lookup) -> str:
+    """``text`` in the edition's language: its message looked up with ``lookup(message)`` (None or the
+    message itself when there is no translation), its numbers put back in their places."""
+    message, numbers = message_of(text)
+    translated = lookup(message)
+    if not translated or translated == message:
+        return text
+    return _PLACE.sub(lambda match: numbers[int(match.group(1)) - 1], translated)
+
+
+def _rewrite(markup: str, translate) -> str:
+    """``markup`` with every word-bearing element text and attribute passed through ``translate``.
+
+    ``translate(text)`` gets the unescaped text and returns the new text, or None to keep it.
+    """
+    def replace(match):
+        text = html.unescape(match.group("text" if match.group("tag") else "value")).strip()
+        new = translate(text)
+        if new is None or new == text:
+            return match.group(0)
+        if match.group("tag"):
+            return f'{match.group("open")}{html.escape(new, quote=False)}{match.group("close")}'
+        quote = match.group("quote")
+        return f'{match.group("name")}{quote}{html.escape(new)}{quote}'
+
+    parts = _SCRIPT.split(markup)
+    # split() with two groups yields [text, script, tag name, text, script, tag name, ...]
+    return "".join(_WORDS.sub(replace, part) if index % 3 == 0 else part
+                   for index, part in enumerate(parts) if index % 3 != 2)
+
+
+def html_messages(markup: str) -> list[str]:
+    """The words of an HTML output that a reader reads, as messages (:func:`message_of`), each once, in order.
+
+    >>> html_messages('<table><thead><tr><th class="num">max |f| [m]</th><th>rtol = 1e-06</th></tr></thead>'
+    ...               '</table><img alt="A &quot;flat&quot; line" src="x.png"><label for="r">Once</label>'
+    ...               '<button title="Play" aria-label="Play">1</button><script>var title="no";</script>')
+    ['max |f| [m]', 'rtol = {1}', 'A "flat" line', 'Once', 'Play']
+    """
+    found = []
+
+    def collect(text):
+        message, _ = message_of(text)
+        if _has_words(message) and message not in found:
+            found.append(message)
+        return None
+
+    _rewrite(markup, collect)
+    return found
+
+
+class translated_html(nodes.raw, addnodes.translatable):
+    """An HTML output whose words (:func:`html_messages`) are messages of the page's catalogue.
+
+    Written as the raw HTML it is (Sphinx's writers dispatch on the classes it derives from).
+    """
+
+    def preserve_original_messages(self) -> None:
+        self.setdefault("original_messages", html_messages(self.astext()))
+
+    def extract_original_messages(self) -> list[str]:
+        return list(self.get("original_messages", ()))
+
+    def apply_translated_message(self, original_message: str, translated_message: str) -> None:
+        lookup = {original_message: translated_message}.get
+        markup = _rewrite(self.astext(), lambda text: localised(text, lookup))
+        self.children = [nodes.Text(markup)]
+        self.rawsource = markup
+
+
+def _in_outputs(node) -> bool:
+    parent = node.parent
+    while parent is not None:
+        if parent.get("nb_element") == "cell_code_output":
+            return True
+        parent = parent.parent
+    return False
+
+
+class MarkTranslatableParts(SphinxTransform):
+    """In every build: outputs' HTML becomes :class:`translated_html`, the rest of the outputs' text
+    untranslatable (it is computed); a literal block of class ``diagram`` translatable.
+
+    Before Sphinx's ``PreserveTranslatableMessages`` (priority 10), which asks the new nodes for
+    their messages, and its ``Locale`` (20), which translates them.
+    """
+
+    default_priority = 5
+
+    def apply(self, **kwargs) -> None:
+        for node in list(self.document.findall(nodes.literal_block)):
+            if DIAGRAM in node.get("classes", ()):
+                node["translatable"] = True
+        for node in list(self.document.findall(nodes.TextElement)):
+            if isinstance(node, nodes.image) or not _in_outputs(node):
+                continue
+            if isinstance(node, nodes.raw) and "html" in node.get("format", "").split() \
+                    and html_messages(node.astext()):
+                replacement = translated_html(node.rawsource, node.astext(), **node.attributes)
+                replacement.source, replacement.line = node.source, node.line
+                node.replace_self(replacement)
+            elif isinstance(node, LITERAL_TYPE_NODES):
+                node["translatable"] = False
+
+
+def _page_catalogue(transform):
+    from sphinx.locale import init as init_locale
+    from sphinx.util.i18n import docname_to_domain
+
+    folders = [str(Path(transform.env.srcdir, folder)) for folder in transform.config.locale_dirs]
+    domain = docname_to_domain(transform.env.docname, transform.config.gettext_compact)
+    catalogue, found = init_locale(folders, transform.config.language, domain)
+    return catalogue if found else None
+
+
+class TranslateLiteralNodes(SphinxTransform):
+    """In a translated edition, just before Sphinx's ``Locale``: a display equation, a text diagram or
+    raw HTML of the page takes its msgstr as its text, as it stands (see the module's docstring), and
+    an output's words (:class:`translated_html`) their translations."""
+
+    default_priority = 19
+
+    def apply(self, **kwargs) -> None:
+        if (self.config.language or SOURCE_LANGUAGE) == SOURCE_LANGUAGE:
+            return
+        catalogue = _page_catalogue(self)
+        if catalogue is None:
+            return
+        # an output's words, here rather than in Locale: Locale's first pass marks a node "translated"
+        # after each message whose translation is the message itself ("alpha", "nfev"), and its second
+        # pass then skips the node's other messages
+        for node in self.document.findall(translated_html):
+            node.preserve_original_messages()
+            for message in node.extract_original_messages():
+                node.apply_translated_message(message, catalogue.gettext(message))
+        for node in list(self.document.findall(
+                lambda n: isinstance(n, LITERAL_TYPE_NODES) and not isinstance(n, addnodes.translatable)
+                and is_translatable(n))):
+            message = node.rawsource or node.astext()
+            translated = catalogue.gettext(message)
+            if translated and translated != message:
+                node.children = [nodes.Text(translated)]
+                node.rawsource = translated
+            node["translatable"] = False                  # Sphinx's Locale would make it "::"
+
+
+class TranslateCodePrompts(SphinxPostTransform):
+    """In a translated edition: MyST-NB's "Show code cell source" and its kin, after MyST-NB's
+    ``HideInputCells`` (priority 199) has written them, from ``EDITIONS[language]["interface"]``."""
+
+    default_priority = 200
+    formats = ("html",)
+
+    def run(self, **kwargs) -> None:
+        from editions import EDITIONS
+        from myst_nb.sphinx_ import HideCodeCellNode
+
+        language = self.config.language or SOURCE_LANGUAGE
+        words = EDITIONS.get(language, {}).get("interface")
+        if language == SOURCE_LANGUAGE or not words:
+            return
+        for node in self.document.findall(HideCodeCellNode):
+            for key in ("prompt_show", "prompt_hide"):
+                if node.get(key) in words:
+                    node[key] = words[node[key]]
+
+
+def gettext_sees_the_html_outputs(app, config):
+    """The gettext build keeps the outputs the HTML build shows (MyST-NB's own choice for it is the
+    plain text), so that it extracts the words the site shows. (An override for the builder
+    ``gettext`` only, set in every build so that the configuration stays the same from one to the next.)"""
+    from myst_nb.core.render import base_render_priority
+
+    html_ranks = [("gettext", mime, rank) for mime, rank in base_render_priority()["html"].items()]
+    config.nb_mime_priority_overrides = [*config.nb_mime_priority_overrides,
+                                         *(o for o in html_ranks if o not in config.nb_mime_priority_overrides)]
+
+
+def setup(app):
+    app.add_transform(MarkTranslatableParts)
+    app.add_transform(TranslateLiteralNodes)
+    app.add_post_transform(TranslateCodePrompts)
+    app.connect("config-inited", gettext_sees_the_html_outputs)
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
