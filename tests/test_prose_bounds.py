@@ -1,24 +1,28 @@
-"""A bound that a chapter's prose states ("below X", "at most X", "X or more") holds for the value it bounds.
+"""A comparison or bound that the prose of chapters 8 and 9 states holds as printed, in the build's run.
 
-A glued number is rounded by the format spec the prose pastes it with (``{glue:text}`key:.1e` ``), and a bound
-rounded the wrong way is false as printed: "below 2.3" above a value of 2.35. Each entry of `BOUNDS` names a
-chapter, the glue key pasted as the bound, words of its sentence, whether the printed number is an upper bound
-(the value is at most the printed number) or a lower bound (at least), and the glue key of the value it bounds.
-That value is glued unrounded in the same hidden cell and not pasted (the key ends in ``-exact`` by
-convention), or it is another pasted value that the sentence compares with the bound. The test formats the
-bound as the prose pastes it, reads the printed number back, and compares it with the value, both from the
-build's own run of the chapter (``_build/jupyter_execute/<page>.glue.json``, where myst-nb keeps every glued
-value of a page).
+A glued number is rounded by the format spec the prose pastes it with (``{glue:text}`key:.2f` ``), and a
+bound rounded the wrong way is false as printed: "below 2.3" above a value of 2.35. Each entry of
+`BOUNDS` is ``(chapter, words of the sentence, left, relation, right)`` and reads "left relation right",
+``relation`` one of ``<``, ``<=``, ``>``, ``>=``. Each side is a glue key or a number: on the left the
+key's exact glued value, on the right its value *as the sentence prints it* (formatted with the
+sentence's own format spec, which the sentence must paste). A bound is glued rounded the safe way (up
+for an upper bound, down for a lower one) at the digits the page prints, and the value it bounds is
+glued unrounded beside it (its key ends in ``-exact``). Both come from the build's own run of the
+chapter: ``_build/jupyter_execute/chapters/<page>.glue.json``, where myst-nb keeps every value a page
+glues.
 
-So that no bound escapes the list, a second test reads the chapters in `CHAPTERS` and asks that every pasted
-value preceded by a bound word ("below", "above", "at most", "at least", "within", "holds to", "up to",
-"under", "over", "more than", "less than", "fewer than") or followed by "or more" / "or less" in its sentence be an entry. Chapters are added to
-`CHAPTERS` as their bounds are listed.
+So that no bound escapes the list, the chapters of `CHAPTERS` are read for sentences that paste a value
+right after a bound word ("below", "above", "at most", "at least", "within", "holds to", "up to",
+"under", "over", "more than", "less than", "fewer than") or with "or more" / "or less" after it: each
+such key must be the right side of an entry.
+
+(The same entry format as the chapters 2-7 bounds of issue 36: at a merge the entries can join one list.)
 """
 
 from __future__ import annotations
 
 import json
+import operator
 import re
 from pathlib import Path
 
@@ -31,14 +35,14 @@ ROOT = Path(__file__).resolve().parents[1]
 #: The chapters whose every stated bound must be an entry of BOUNDS.
 CHAPTERS = ("08-error-vs-runtime.md", "09-stiffness-and-long-runs.md")
 
-#: (chapter file, glue key pasted as the bound, words of its sentence, "upper" or "lower", glue key of the value)
+#: (chapter file, words of the sentence, left, relation, right): "left relation right" holds in the build's run.
 BOUNDS = [
-    ("09-stiffness-and-long-runs.md", "ch09-rk45-edge",
-     "just inside the edge", "upper", "ch09-rk45-loosest-alpha-h"),
-    ("09-stiffness-and-long-runs.md", "ch09-rule-margin",
-     "The rule lies inside the stable region", "upper", "ch09-rule-margin-exact"),
+    ("09-stiffness-and-long-runs.md", "just inside the edge", "ch09-rk45-loosest-alpha-h", "<", "ch09-rk45-edge"),
+    ("09-stiffness-and-long-runs.md", "The rule lies inside the stable region",
+     "ch09-rule-margin-exact", "<=", "ch09-rule-margin"),
 ]
 
+_RELATIONS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
 _ROLE = re.compile(r"\{glue(?::text)?\}`([^`:]+)(?::([^`]*))?`")
 _BEFORE = re.compile(r"\b(?:below|above|at most|at least|within|holds? to|up to|under|over|more than|less than"
                      r"|fewer than)\s*$", re.I)
@@ -46,42 +50,46 @@ _AFTER = re.compile(r"^[^.;:]{0,40}?\bor (?:more|less)\b", re.I)
 
 
 def glued_values(chapter):
-    """``key -> text/plain`` of every value glued in the build's run of a chapter."""
+    """``key -> value`` of every number glued in the build's run of a chapter."""
     path = ROOT / "_build" / "jupyter_execute" / "chapters" / chapter.replace(".md", ".glue.json")
     assert path.exists(), f"no glued values of {chapter} in the build ({path})"
-    return {key: "".join(output["data"]["text/plain"]) for key, output in json.loads(path.read_text()).items()}
+    values = {}
+    for key, output in json.loads(path.read_text()).items():
+        text = "".join(output["data"]["text/plain"]).strip()
+        found = re.fullmatch(r"(?:np\.\w+\()?([-+0-9.eE]+|inf|nan)\)?", text)
+        if found:
+            values[key] = float(found.group(1))
+    return values
 
 
-def number(text):
-    """The number a glued value's text/plain shows (``1.5e-05``, ``np.float64(2.0)``, ``3``)."""
-    found = re.fullmatch(r"(?:np\.\w+\()?([-+0-9.eE]+|inf|nan)\)?", text.strip())
-    assert found, f"not a number: {text!r}"
-    return float(found.group(1))
+def as_printed(sentence, key, value):
+    """``value`` as the sentence prints the glued ``key``: with its format spec, read back."""
+    specs = {match.group(2) or "" for match in _ROLE.finditer(sentence) if match.group(1) == key}
+    assert len(specs) == 1, f"the sentence pastes {key} with {len(specs)} format specs: {specs}"
+    text = format(value, specs.pop())
+    return float(text.rstrip("%")) / 100 if text.endswith("%") else float(text)
 
 
-def printed(sentence, key, value):
-    """The number the prose shows for ``key``: the value formatted by the sentence's format spec."""
-    spec = next(match.group(2) or "" for match in _ROLE.finditer(sentence) if match.group(1) == key)
-    return float(format(value, spec))
+def side(value, values, sentence, left):
+    if isinstance(value, str):
+        assert value in values, f"no number glued as {value!r} in the build's run"
+        return values[value] if left else as_printed(sentence, value, values[value])
+    return float(value)
 
 
-def holds(kind, bound, value):
-    return value <= bound if kind == "upper" else value >= bound
-
-
-@pytest.mark.parametrize("chapter, key, words, kind, value_key", BOUNDS, ids=[entry[1] for entry in BOUNDS])
-def test_a_stated_bound_holds_as_printed(built_site, chapter, key, words, kind, value_key):
+@pytest.mark.parametrize("chapter, words, left, relation, right", BOUNDS,
+                         ids=[f"{b[2]}{b[3]}{b[4]}" for b in BOUNDS])
+def test_a_stated_bound_holds_as_printed(built_site, chapter, words, left, relation, right):
     sentence = sentence_with(markdown_and_code(chapter)[0], words)
     values = glued_values(chapter)
-    bound = printed(sentence, key, number(values[key]))
-    value = number(values[value_key])
-    assert holds(kind, bound, value), (
-        f"{chapter}: the prose prints {key} as {bound:g}, an {kind} bound, but the value is {value!r}: "
-        f"round it the safe way (up for an upper bound, down for a lower one) in: {sentence}")
+    value, bound = side(left, values, sentence, True), side(right, values, sentence, False)
+    assert _RELATIONS[relation](value, bound), (
+        f"{chapter}: '{words}' states {left} {relation} {right}, printed {bound:g}, but {left} is {value!r}: "
+        f"round the bound the safe way (up for an upper bound, down for a lower one): {sentence}")
 
 
 def stated_bounds(sentence):
-    """The glue keys that a sentence states as bounds, by the words around them."""
+    """The glue keys that a sentence pastes as bounds, by the words around them."""
     for match in _ROLE.finditer(sentence):
         if _BEFORE.search(sentence[:match.start()]) or _AFTER.search(sentence[match.end():]):
             yield match.group(1)
@@ -89,7 +97,7 @@ def stated_bounds(sentence):
 
 @pytest.mark.parametrize("chapter", CHAPTERS)
 def test_every_stated_bound_is_listed(chapter):
-    listed = {key for file, key, *_ in BOUNDS if file == chapter}
+    listed = {right for file, _, _, _, right in BOUNDS if file == chapter}
     missing = [(key, sentence) for sentence in sentences(markdown_and_code(chapter)[0])
                for key in stated_bounds(sentence) if key not in listed]
     assert not missing, f"{chapter}: bounds stated in prose but not in BOUNDS: {missing}"
@@ -98,10 +106,10 @@ def test_every_stated_bound_is_listed(chapter):
 def test_the_bound_checks_can_fail():
     """A bound rounded the wrong way is caught, and the words that state a bound are found."""
     sentence = "Both runs hold |f| below {glue:text}`ch04-x:.1f` times the tolerance."
-    assert printed(sentence, "ch04-x", 2.35) == 2.4 and holds("upper", 2.4, 2.35)
-    assert printed(sentence, "ch04-x", 2.34) == 2.3 and not holds("upper", 2.3, 2.35)
-    assert not holds("lower", printed("steps of {glue:text}`k:.0f` or more", "k", 39.7), 39.7)
+    assert as_printed(sentence, "ch04-x", 2.349) == 2.3 and not _RELATIONS["<="](2.35, 2.3)
+    assert as_printed(sentence, "ch04-x", 2.35) == 2.4 and _RELATIONS["<="](2.35, 2.4)
+    assert as_printed("steps of {glue:text}`k:.0f` or more", "k", 39.7) == 40.0 and not _RELATIONS[">="](39.7, 40)
     assert list(stated_bounds(sentence)) == ["ch04-x"]
+    assert list(stated_bounds("a step more than {glue:text}`k:.2f` times as long")) == ["k"]
     assert list(stated_bounds("It takes {glue:text}`k:.0f` times 1/alpha or more.")) == ["k"]
     assert list(stated_bounds("It takes {glue:text}`k:.0f` times as long.")) == []
-    assert number("np.float64(1.5e-05)") == 1.5e-05 and number("3") == 3.0
