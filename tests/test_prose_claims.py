@@ -283,6 +283,8 @@ CLAIMS = [
      "The error of the crank angle grows", ("1.5", "200")),
     ("09-stiffness-and-long-runs.md", "ch09-rk45-error-fast",
      "The error of the crank angle grows", ("1.5", "200")),
+    ("09-stiffness-and-long-runs.md", "ch09-lsoda-over-rk45",
+     "Nothing here is stiff", ("200",)),
     ("09-stiffness-and-long-runs.md", "ch09-crossings",
      "Every run that finishes counts", ()),
     ("09-stiffness-and-long-runs.md", "ch09-augmented-drift",
