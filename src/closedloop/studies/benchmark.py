@@ -279,7 +279,8 @@ class _Context:
 def _run(entry, context, method, rtol, t_eval, residuals=False):
     """One run: ``(t, y (6 x N), nfev)``, and ``(|f|, |f'|)`` at the output times if asked."""
     if entry.formulation is None:
-        res = context.baselines[entry.modules].simulate(context.state, float(context.grid[-1]), method, rtol, rtol, t_eval=t_eval)
+        baseline = context.baselines[entry.modules]
+        res = baseline.simulate(context.state, float(context.grid[-1]), method, rtol, rtol, t_eval=t_eval)
         y = np.vstack((res.s, res.sd))
         norms = _residuals(context.system, y) if residuals else None
     else:
