@@ -18,10 +18,11 @@ their ratio.  Every run integrates 0-20 s (the study's run) and outputs the stat
   both sides interleaved, and each keeps its smallest process time (``time.process_time``).
   The best of each side is the smallest of those.
 
-    python benchmarks/speed_vs_baseline.py [--repeats 7] [--cases 1 2 3 4] [--modules numpy]
+    python benchmarks/speed_vs_baseline.py [--repeats 7] [--cases 1 2 3 4] [--modules numpy math]
 
-``--modules math`` times the baseline lambdified for Python's math module instead of sympy's
-default numpy printer (see the baseline's module notes).
+The baseline runs lambdified for sympy's default numpy printer and for Python's math module (see
+the baseline's module notes), each a candidate of its own: its best is the cheapest of both
+printers.  ``--modules numpy`` (or ``math``) times one printer only.
 """
 
 from __future__ import annotations
@@ -100,15 +101,16 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--cases", type=int, nargs="+", default=[1, 2, 3, 4])
-    parser.add_argument("--modules", choices=("numpy", "math"), default="numpy")
+    parser.add_argument("--modules", choices=("numpy", "math"), nargs="+", default=["numpy", "math"])
     parser.add_argument("--cap", type=float, default=0.6, help="screening stops after a run this long [s]")
     parser.add_argument("--reliable", action="store_true", help="every tighter rtol must reach the target too")
     args = parser.parse_args()
     system = slider_crank_system()
-    baseline = LagrangesBaseline(system.parameters, system.reading, modules=args.modules)
-    print(f"e10 <= {TARGET:g}; baseline lambdified for {args.modules!r}; CPU = best of {args.repeats} "
+    baselines = {printer: LagrangesBaseline(system.parameters, system.reading, modules=printer)
+                 for printer in args.modules}
+    print(f"e10 <= {TARGET:g}; baseline lambdified for {', '.join(args.modules)}; CPU = best of {args.repeats} "
           f"interleaved runs (process time){'; reliable tolerances' if args.reliable else ''}\n")
-    header = (f"{'case':>4}  {'baseline best':<24} {'e10':>8} {'CPU [ms]':>9}  {'library best':<34} {'e10':>8} "
+    header = (f"{'case':>4}  {'baseline best':<32} {'e10':>8} {'CPU [ms]':>9}  {'library best':<34} {'e10':>8} "
               f"{'CPU [ms]':>9}  {'ratio':>6}")
     lines, ratios = [header, "-" * len(header)], []
     for case in args.cases:
@@ -118,11 +120,12 @@ def main():
                        t_eval=(T_CHECK,))
         reference = np.concatenate((ref.s[:, 0], ref.sd[:, 0]))
         candidates = []                                  # (side, label, rtol, e10, run)
-        for method in BASELINE_METHODS:
-            found = screen(lambda rtol, m=method: baseline_run(baseline, state, m, rtol), reference, args.cap,
+        for (printer, baseline), method in ((b, m) for b in baselines.items() for m in BASELINE_METHODS):
+            found = screen(lambda rtol, b=baseline, m=method: baseline_run(b, state, m, rtol), reference, args.cap,
                            args.reliable)
             if found:
-                candidates.append(("baseline", method, *found, baseline_run(baseline, state, method, found[0])))
+                candidates.append(("baseline", f"{method} ({printer})", *found,
+                                   baseline_run(baseline, state, method, found[0])))
         for label, make, method in LIBRARY_ROUTES:
             found = screen(lambda rtol, mk=make, m=method: library_run(system, state, mk, m, rtol), reference,
                            args.cap, args.reliable)
@@ -142,7 +145,7 @@ def main():
             continue
         (base, base_cpu), (lib, lib_cpu) = best["baseline"], best["library"]
         ratios.append(base_cpu / lib_cpu)
-        lines.append(f"{case:>4}  {base[1] + ', rtol ' + format(base[2], '.0e'):<24} {base[3]:8.1e} "
+        lines.append(f"{case:>4}  {base[1] + ', rtol ' + format(base[2], '.0e'):<32} {base[3]:8.1e} "
                      f"{1e3 * base_cpu:9.2f}  {lib[1] + ', rtol ' + format(lib[2], '.0e'):<34} {lib[3]:8.1e} "
                      f"{1e3 * lib_cpu:9.2f}  {base_cpu / lib_cpu:6.2f}")
     print()

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from closedloop.errors import InputError
-from closedloop.studies.benchmark import (BASELINE_KEY, QUICK_SETTINGS, REFERENCE_METHOD, REFERENCE_TOL, Entry,
-                                          StudySettings, cheapest_choices, performance_ratios, run_study,
-                                          source_fingerprint, study_entries)
+from closedloop.studies.benchmark import (BASELINE_KEY, BASELINE_KEYS, BASELINE_MATH_KEY, QUICK_SETTINGS,
+                                          REFERENCE_METHOD, REFERENCE_TOL, Entry, StudySettings, cheapest_choices,
+                                          performance_ratios, run_study, source_fingerprint, study_entries)
 
 REQUIRED = ("case", "formulation", "method", "rtol", "cpu_s", "error_t10", "max_constraint_error", "nfev")
 
@@ -133,9 +133,47 @@ def test_the_baseline_refuses_bad_outputs_and_states_before_integrating():
     assert run.t.tolist() == [0.25, 1.0]
 
 
+def test_the_two_printers_are_one_baseline():
+    """The math printer lambdifies the same expressions as numpy's: the same right-hand side to round-off,
+    on both branches of the gas force and on both sides of its law's switch at x_C = 5, and, in the quick
+    study, the same errors at the same tolerances."""
+    from closedloop.slider_crank import slider_crank_system
+    from closedloop.studies.baseline import LagrangesBaseline
+
+    system = slider_crank_system()
+    printers = [LagrangesBaseline(system.parameters, system.reading, modules=m) for m in ("numpy", "math")]
+    rng = np.random.default_rng(36)
+    for x, x_rate in ((2.0, 1.5), (5.3, 0.7), (4.0, -1.0), (1.6, 0.0)):
+        y = np.array([rng.uniform(0, 2 * np.pi), rng.uniform(2.5, 3.8), x, rng.normal(), rng.normal(), x_rate])
+        t = rng.uniform(0.0, 20.0)
+        numpy_rhs, math_rhs = (printer.rhs(t, y) for printer in printers)
+        assert np.allclose(math_rhs, numpy_rhs, rtol=1e-12, atol=1e-12), (y, numpy_rhs - math_rhs)
+    assert printers[1].rhs(0.0, y).shape == (6,)
+
+
+def test_the_quick_study_runs_the_baseline_with_both_printers(quick):
+    rows = {key: curve(quick[0], key) for key in BASELINE_KEYS}
+    for tol in (1e-6, 1e-9):
+        numpy_row, math_row = rows[BASELINE_KEY][tol], rows[BASELINE_MATH_KEY][tol]
+        assert numpy_row["status"] == math_row["status"] == "ok"
+        # the same equations: errors of the same size (round-off may tip a step, not the accuracy)
+        assert 0.2 < math_row["error_t10"] / numpy_row["error_t10"] < 5, (numpy_row, math_row)
+
+
 def fake(case, key, cpu, error):
     return {"case": case, "formulation": key, "label": key, "method": "RK45", "rtol": 1e-6, "status": "ok",
             "cpu_s": cpu, "error_t10": error}
+
+
+def test_the_library_is_compared_with_the_baseline_at_its_best_printer():
+    """The ratio takes the cheaper printer that meets the target: here the math printer's row, not numpy's,
+    and not the math printer's cheaper row that misses the target."""
+    rows = [fake(1, "closed-form", 0.010, 1e-9), fake(1, BASELINE_KEY, 0.100, 1e-9),
+            fake(1, BASELINE_MATH_KEY, 0.040, 1e-9), fake(1, BASELINE_MATH_KEY, 0.020, 1e-6)]
+    ratio = performance_ratios(rows, target=1e-8)[1]
+    assert ratio["baseline"]["formulation"] == BASELINE_MATH_KEY and ratio["ratio"] == pytest.approx(4.0)
+    (level,) = cheapest_choices(rows, levels=(1e-8,))
+    assert level["best"]["formulation"] == "closed-form" and level["baseline"]["cpu_s"] == 0.040
 
 
 def test_cheapest_choice_and_ratio_from_rows():
@@ -190,11 +228,12 @@ def test_the_baseline_keeps_its_own_methods_in_every_case():
     so that the library's speed-up in those cases is not measured against a handicapped rival."""
     from closedloop.studies.benchmark import DEFAULT_SETTINGS as settings
 
-    assert settings.methods_of(settings.main_case, BASELINE_KEY) == settings.methods
-    for case in settings.cases:
-        if case != settings.main_case:
-            assert "LSODA" in settings.methods_of(case, BASELINE_KEY)
-            assert "LSODA" not in settings.methods_of(case, "closed-form")
+    for key in BASELINE_KEYS:
+        assert settings.methods_of(settings.main_case, key) == settings.methods
+        for case in settings.cases:
+            if case != settings.main_case:
+                assert "LSODA" in settings.methods_of(case, key)
+                assert "LSODA" not in settings.methods_of(case, "closed-form")
 
 
 @pytest.mark.parametrize("errors, rows_run", [

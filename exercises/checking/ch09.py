@@ -21,7 +21,7 @@ TEST_STATE = (2.0, 3.0)
 
 
 def _spread(m1, m2, m3):
-    """Study 4's mass spreads: I1 = 2.25 m1, I2 = m2."""
+    """The mass spreads of chapter 9's last section: I1 = 2.25 m1, I2 = m2."""
     return slider_crank_system(SliderCrankParameters(m1=m1, I1=2.25 * m1, m2=m2, I2=m2, m3=m3))
 
 

@@ -43,7 +43,11 @@ def _entry_styles(labels):
 
 
 def _entry_legend(fig, styles, axes):
-    """One legend below the panels: a plain line with each drawn contestant's colour and marker."""
+    """One legend below the panels: a plain line with each drawn contestant's colour and marker.
+
+    Two columns where they fit the figure's width, else one: a legend wider than the figure would
+    widen the saved image, and the book would shrink all its text to fit the column.
+    """
     from matplotlib.lines import Line2D
 
     from .style import legend_outside
@@ -51,7 +55,12 @@ def _entry_legend(fig, styles, axes):
     drawn = {line.get_label() for ax in axes for line in ax.lines}
     handles = [Line2D([], [], lw=1.2, ms=5, label=label, **style) for label, style in styles.items()
                if label in drawn]
-    return legend_outside(fig, handles, ncols=2)
+    legend = legend_outside(fig, handles, ncols=2)
+    fig.draw_without_rendering()
+    if legend.get_window_extent().width > fig.bbox.width:
+        legend.remove()
+        legend = legend_outside(fig, handles, ncols=1)
+    return legend
 
 
 def _method_linestyle(method):
