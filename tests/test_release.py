@@ -198,4 +198,5 @@ def test_the_archive_holds_the_notebooks_their_files_and_the_library(built_site)
               if p.is_file() and "__pycache__" not in p.parts and ".egg-info" not in p.as_posix()}
     assert source and source <= set(inside) and "pyproject.toml" in inside
     assert wheel == (built_site / "_downloads" / companion.wheel_name()).read_bytes()
-    assert companion.RUN_COMMANDS.format(wheel=companion.wheel_name()).splitlines()[1] in readme
+    commands = companion.RUN_COMMANDS.format(wheel=companion.wheel_name()).splitlines()
+    assert f'"{companion.wheel_name()}[plot]"' in commands[2] and all(line in readme for line in commands)

@@ -54,9 +54,10 @@ INSTRUCTORS_ONLY = ("book/rubrics",)
 ARCHIVE_FILES = ("CITATION.cff", "CHANGELOG.md", "LICENSE", "LICENSE-TEXT", "pyproject.toml")
 #: From the downloads to a running notebook: ``{wheel}`` is the wheel's file name.
 RUN_COMMANDS = """\
-python3 -m venv closedloop-env
-closedloop-env/bin/pip install "{wheel}[plot]" jupyterlab
-closedloop-env/bin/jupyter lab"""
+python3 -m venv venv
+venv/bin/pip install jupyterlab
+venv/bin/pip install "{wheel}[plot]"
+venv/bin/jupyter lab"""
 #: The words the extension writes itself, by language (the pages' own words are in the catalogues).
 TEXTS = {
     "en": {"wheel": "library (.whl)", "wheel_tip": "Download the library, closedloop {version}",
@@ -86,7 +87,7 @@ To run them, with Python 3.11 or later, in this folder:
 
     {commands}
 
-On Windows write `closedloop-env\\Scripts\\` for `closedloop-env/bin/`. JupyterLab opens in your
+On Windows write `venv\\Scripts\\` for `venv/bin/`. JupyterLab opens in your
 browser: open any notebook and run its cells.
 """
 
