@@ -52,13 +52,14 @@ def solution_parts(page):
     return sentences, code
 
 
+@lru_cache(maxsize=None)
 def page_text(path):
     """The text of a page's article, whitespace single and quotes straight (code included)."""
-    from bs4 import BeautifulSoup
+    import html
 
-    soup = BeautifulSoup(path.read_text(encoding="utf-8"), "html.parser")
-    article = soup.find("article") or soup
-    return typographic(article.get_text(" "))
+    text = path.read_text(encoding="utf-8")
+    article = text[text.find("<article"):text.rfind("</article>")]
+    return typographic(html.unescape(re.sub(r"<[^>]+>", " ", article)))
 
 
 def squeezed(text):
