@@ -193,10 +193,11 @@ def fetch(page, folder):
     return source.name
 
 
-def run_plain(python, home, page):
-    """``page``'s download run in a fresh folder by the plain environment (tests/plain_jupyter.py).
+def run_plain(python, home, pages):
+    """Each of ``pages``' downloads run in a fresh folder of its own by the plain environment, one after
+    the other in one runner process (tests/plain_jupyter.py), each in a fresh kernel.
 
-    Returns (the executed notebook, the runner's report: the kernel's prefix, and why it stopped early).
+    Returns {page: (the executed notebook, the runner's report: the kernel's prefix, and why it stopped early)}.
     """
     import json
     import subprocess
@@ -204,19 +205,24 @@ def run_plain(python, home, page):
 
     import nbformat
 
-    folder = Path(tempfile.mkdtemp(prefix="reader-"))
+    jobs = []
+    for page in pages:
+        folder = Path(tempfile.mkdtemp(prefix="reader-"))
+        jobs.append((page, folder, fetch(page, folder), folder.parent / f"{folder.name}.out.ipynb"))
     try:
-        name = fetch(page, folder)
-        output = folder.parent / f"{folder.name}.out.ipynb"
-        done = subprocess.run([str(python), str(ROOT / "tests" / "plain_jupyter.py"), str(folder), name, str(output)],
-                              cwd=folder, env=plain_environment_variables(home), capture_output=True, text=True,
-                              timeout=900)
-        assert done.returncode == 0, f"{page}: the runner failed:\n{done.stderr[-3000:]}"
-        notebook = nbformat.read(output, as_version=4)
-        output.unlink()
-        return notebook, json.loads(done.stdout.strip().splitlines()[-1])
+        done = subprocess.run([str(python), str(ROOT / "tests" / "plain_jupyter.py"),
+                               *[str(part) for _, folder, name, output in jobs for part in (folder, name, output)]],
+                              cwd=home, env=plain_environment_variables(home), capture_output=True, text=True,
+                              timeout=900 * len(jobs))
+        assert done.returncode == 0, f"{pages}: the runner failed:\n{done.stderr[-3000:]}"
+        reports = [json.loads(line) for line in done.stdout.strip().splitlines() if line.startswith("{")]
+        assert len(reports) == len(jobs), done.stdout[-2000:]
+        return {page: (nbformat.read(output, as_version=4), report)
+                for (page, _, _, output), report in zip(jobs, reports)}
     finally:
-        shutil.rmtree(folder, ignore_errors=True)
+        for _, folder, _, output in jobs:
+            shutil.rmtree(folder, ignore_errors=True)
+            output.unlink(missing_ok=True)
 
 
 @pytest.fixture(scope="module")
@@ -230,10 +236,15 @@ def executed(plain_python, tmp_path_factory):
     from concurrent.futures import ThreadPoolExecutor
 
     home = tmp_path_factory.mktemp("reader-home")
-    # the chapters first: they take longest, so the two workers end together rather than one waiting
+    # one runner per core, each given every other page, the chapters first (they take longest, so that
+    # the runners end together rather than one waiting for the other)
+    workers = max(1, min(2, os.cpu_count() or 1))
     order = sorted(DOWNLOADS, key=lambda page: not page.startswith("chapters/"))
-    with ThreadPoolExecutor(max_workers=max(1, min(2, os.cpu_count() or 1))) as pool:
-        return dict(zip(order, pool.map(lambda page: run_plain(plain_python, home, page), order)))
+    executed = {}
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        for found in pool.map(lambda k: run_plain(plain_python, home, order[k::workers]), range(workers)):
+            executed.update(found)
+    return executed
 
 
 def downloaded(page):
@@ -308,6 +319,34 @@ def test_a_chapter_download_is_its_source_as_the_build_ran_it(built, page):
 def test_the_data_file_detector_finds_what_chapter_8_reads():
     found = DATA_FILE.findall((ROOT / "chapters" / "08-error-vs-runtime.md").read_text())
     assert found and set(found) == {"benchmark.json"}
+
+
+#: The archive's notebooks that read files beside them, one of each kind: a chapter's data (found by walking
+#: up to book/data), the appendix's (data/ beside it) and an exercise page's checks (exercises/checking).
+FROM_THE_ARCHIVE = ["chapters/08-error-vs-runtime", "book/appendix-provenance", "exercises/01-closed-loop-systems"]
+
+
+def test_the_archive_runs_as_unzipped(built, plain_python, tmp_path):
+    """The companion's archive, unzipped, runs its notebooks where they lie (the page "Run it yourself")."""
+    import json
+    import subprocess
+
+    import nbformat
+
+    archive = next((HTML / "_downloads").glob("closedloop-companion-*.zip"))
+    with zipfile.ZipFile(archive) as stream:
+        stream.extractall(tmp_path)
+    top = tmp_path / archive.stem
+    for page in FROM_THE_ARCHIVE:
+        notebook = top / f"{page}.ipynb"
+        output = tmp_path / f"{notebook.stem}.out.ipynb"
+        done = subprocess.run([str(plain_python), str(ROOT / "tests" / "plain_jupyter.py"), str(notebook.parent),
+                               notebook.name, str(output)], cwd=notebook.parent,
+                              env=plain_environment_variables(tmp_path), capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0 and "stopped" not in json.loads(done.stdout.splitlines()[-1]), done.stderr[-2000:]
+        errors = [o["ename"] for c in nbformat.read(output, as_version=4).cells if c.cell_type == "code"
+                  for o in c.get("outputs", []) if o.get("output_type") == "error"]
+        assert set(errors) <= ({"NotAnswered"} if page.startswith("exercises/") else set()), f"{page}: {errors}"
 
 
 def test_the_plain_environment_has_no_book_tool_and_not_the_repository(plain_python):
