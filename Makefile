@@ -1,7 +1,8 @@
 # Two set-up commands for a fresh machine (see README.md):
 #   make book   builds the book into _build/html, and its Vietnamese edition into _build/html/vi
 #   make test   runs the test suite (library, chapters, and the built site in headless Chromium)
-# and make pdf prints the book to _build/pdf/closedloop.pdf (and closedloop.vi.pdf).
+# and make pdf prints the book to _build/pdf/closedloop.pdf (and closedloop.vi.pdf), make course builds
+# the course edition (no solutions) into _build/course/html.
 # Each creates .venv from the pinned requirements/lock.txt when it is missing or out of date.
 
 PYTHON ?= python3
@@ -13,14 +14,19 @@ STAMP  := $(VENV)/.installed
 # Every .py below src/ and exercises/checking, in subpackages too (find, not a one-level wildcard).
 SOURCE_HASH = $(shell cat $$(find src exercises/checking -name '*.py' -not -path '*/__pycache__/*' | LC_ALL=C sort) pyproject.toml requirements/lock.txt _config.yml book/data/benchmark.json book/data/long_runs.json | sha256sum | cut -c1-16)
 
-# Sphinx notices a change to a page or to the config, not to the book's own extensions: an edit under
-# book/_ext must rewrite every page (but re-executes nothing), so the doctrees are keyed on this hash.
-EXTENSIONS_HASH = $(shell cat $$(find book/_ext -name '*.py' | LC_ALL=C sort) | sha256sum | cut -c1-16)
+# Sphinx notices a change to a page or to the config, not to the book's own extensions nor to the files
+# they read (the exercises' times and difficulties, the citation): an edit there must rewrite every page
+# (but re-executes nothing), so the doctrees are keyed on this hash.
+EXTENSIONS_HASH = $(shell cat $$(find book/_ext -name '*.py' | LC_ALL=C sort) exercises/effort.yml CITATION.cff | sha256sum | cut -c1-16)
 
 # The translated editions (book/_ext/editions.py), each from locales/<language>/LC_MESSAGES.
 LANGUAGES := vi
 
-.PHONY: book translations pdf pdf-tools test browser student grade benchmark benchmark-data long-runs-data timings speed clean
+# The one version (closedloop.__version__), and the library's wheel that the site offers (book/_ext/companion.py)
+VERSION = $(shell sed -n 's/^__version__ = "\(.*\)"$$/\1/p' src/closedloop/__init__.py)
+WHEEL = _build/dist/closedloop-$(VERSION)-py3-none-any.whl
+
+.PHONY: book course translations pdf pdf-tools test browser student grade benchmark benchmark-data long-runs-data timings speed clean
 
 # pip byte-compiles every installed module one after another (half of the 50 s an install takes here);
 # compileall does the same on every core. It must be done at install: where PYTHONDONTWRITEBYTECODE is
@@ -38,10 +44,10 @@ $(STAMP): requirements/lock.txt pyproject.toml
 define FRESH_CACHE
 @mkdir -p _build
 @if [ "$$(cat _build/.source-hash 2>/dev/null)" != "$(SOURCE_HASH)" ]; then \
-  rm -rf _build/.jupyter_cache _build/.doctrees _build/html _build/singlehtml $(addprefix _build/,$(LANGUAGES)); \
+  rm -rf _build/.jupyter_cache _build/.doctrees _build/html _build/singlehtml _build/course $(addprefix _build/,$(LANGUAGES)); \
   echo "library, lock or config changed since the last build: every chapter is executed afresh"; \
 elif [ "$$(cat _build/.extensions-hash 2>/dev/null)" != "$(EXTENSIONS_HASH)" ]; then \
-  rm -rf _build/.doctrees _build/html _build/singlehtml $(addprefix _build/,$(LANGUAGES)); \
+  rm -rf _build/.doctrees _build/html _build/singlehtml _build/course $(addprefix _build/,$(LANGUAGES)); \
   echo "the book's extensions (book/_ext) changed since the last build: every page is written afresh"; \
 fi
 endef
@@ -52,7 +58,18 @@ EDITION_BUILD = mkdir -p _build/$(1) && \
   $(BIN)/python book/_ext/editions.py config $(1) > _build/$(1)/_config.yml && \
   $(BIN)/jupyter-book build . -n -W --keep-going --config _build/$(1)/_config.yml --path-output _build/$(1) $(2)
 
-book: $(STAMP)
+# The library as a wheel, for the site's downloads: pip wheel with the pinned setuptools, from a copy of what
+# the wheel is made of (setuptools' build/ and egg-info stay in _build), dated by the last commit.
+$(WHEEL): $(STAMP) pyproject.toml README.md LICENSE LICENSE-TEXT $(shell find src -name '*.py' -o -name '*.mplstyle')
+	rm -rf _build/dist && mkdir -p _build/dist/source
+	tar --exclude=__pycache__ --exclude='*.egg-info' -cf - pyproject.toml README.md LICENSE LICENSE-TEXT src \
+	  | tar -xf - -C _build/dist/source
+	SOURCE_DATE_EPOCH=$$(git log -1 --format=%ct 2>/dev/null || echo 315532800) \
+	  $(BIN)/python -m pip wheel --quiet --disable-pip-version-check --no-deps --no-build-isolation \
+	  --wheel-dir _build/dist _build/dist/source
+	rm -rf _build/dist/source
+
+book: $(STAMP) $(WHEEL)
 	$(FRESH_CACHE)
 	@# the pages the execution cache lacks, executed a core each (the build then executes none)
 	$(BIN)/python book/_ext/execute_pages.py
@@ -63,6 +80,24 @@ book: $(STAMP)
 	  rm -rf _build/html/$$language && cp -r _build/$$language/_build/html _build/html/$$language || exit 1; \
 	done
 	@echo "$(SOURCE_HASH)" > _build/.source-hash && echo "$(EXTENSIONS_HASH)" > _build/.extensions-hash
+
+# The course edition, for an instructor to publish to a class: the same site without any solution and without
+# the instructors' appendix (book/_ext/companion.py), English into _build/course/html, each translation into
+# _build/course/html/<language>; from the same execution cache as make book.
+COURSE_BUILD = mkdir -p _build/course/$(1) && \
+  $(BIN)/python book/_ext/companion.py course-config $(1) > _build/course/$(1)/_config.yml && \
+  $(BIN)/jupyter-book build . -n -W --keep-going --config _build/course/$(1)/_config.yml \
+    --toc _build/course/_toc.yml --path-output _build/course/$(1)
+
+course: $(STAMP) $(WHEEL)
+	$(FRESH_CACHE)
+	$(BIN)/python book/_ext/execute_pages.py
+	@mkdir -p _build/course && $(BIN)/python book/_ext/companion.py course-toc > _build/course/_toc.yml
+	@for language in en $(LANGUAGES); do $(call COURSE_BUILD,$$language) || exit 1; done
+	@rm -rf _build/course/html && cp -r _build/course/en/_build/html _build/course/html
+	@for language in $(LANGUAGES); do cp -r _build/course/$$language/_build/html _build/course/html/$$language; done
+	@echo "$(SOURCE_HASH)" > _build/.source-hash && echo "$(EXTENSIONS_HASH)" > _build/.extensions-hash
+	@echo "the course edition: _build/course/html/index.html"
 
 # After editing a page: bring every translation's catalogue in step with the sources (new messages
 # empty, changed ones fuzzy), then translate what `tests/test_translations.py` lists.
@@ -80,7 +115,7 @@ translations: $(STAMP)
 # The book as one PDF: Jupyter Book's single-page build (the same pages and numbering as the site,
 # from the same execution cache) printed by Debian's headless Chromium, solutions left out
 # (book/print/print_pdf.py; poppler-utils' pdfinfo finds the contents' page numbers).
-pdf: $(STAMP) pdf-tools
+pdf: $(STAMP) pdf-tools $(WHEEL)
 	$(FRESH_CACHE)
 	$(BIN)/python book/_ext/execute_pages.py
 	$(BIN)/jupyter-book build . --builder singlehtml -n -W --keep-going

@@ -5,7 +5,8 @@
 Each exercise notebook is written once, with its solutions (MyST Markdown). The
 student version is the same notebook with:
 
-- every ``{solution}`` block removed, and each ``{exercise}`` shown as a plain heading;
+- every ``{solution}`` block removed, and each ``{exercise}`` shown as a plain heading, which ends
+  with the exercise's expected time and difficulty (``exercises/effort.yml``);
 - every gated solution (``{solution-start}`` ... ``{solution-end}``) removed, except
   its code cells that hold a ``# BEGIN SOLUTION`` / ``# END SOLUTION`` block: that
   block is replaced by the lines written after ``# STUDENT:`` inside it, typically
@@ -21,6 +22,7 @@ build outputs and are never committed.
 
 from __future__ import annotations
 
+import functools
 import re
 import sys
 from pathlib import Path
@@ -77,6 +79,7 @@ def student_markdown(text: str) -> str:
                     body.append(lines[j])
                 j += 1
             heading = title if title.startswith(f"{number}:") else f"{number}: {title}"
+            heading += f" · {_plain_notebook().exercise_effort(number)}"     # its time and difficulty
             out += [f"### Exercise {heading}\n"] + (body[1:] if body and body[0].strip() == ":nonumber:" else body)
             i = j + 1
             continue
@@ -98,10 +101,50 @@ def student_markdown(text: str) -> str:
     return re.sub(r"^(# .+\n)", lambda m: m.group(1) + "\n" + NOTICE, text, count=1, flags=re.M)
 
 
+def markdown_without_solutions(text: str, gated: bool = False) -> tuple[str, bool]:
+    """``text`` (one markdown cell's MyST source) without its ``{solution}`` blocks and without what lies
+    between a ``{solution-start}`` and its ``{solution-end}``; ``gated`` says whether the cell starts inside
+    such a pair. Returns the text and whether the cell ends inside one."""
+    lines = text.splitlines(keepends=True)
+    out, i = [], 0
+    while i < len(lines):
+        match = FENCE.match(lines[i])
+        name = match.group("name") if match else None
+        if name in ("solution", "solution-start", "solution-end"):
+            j = i + 1                                   # skip the directive to its closing fence
+            while j < len(lines) and lines[j].strip() != match.group("fence"):
+                j += 1
+            i, gated = j + 1, {"solution": gated, "solution-start": True, "solution-end": False}[name]
+            continue
+        if not gated:
+            out.append(lines[i])
+        i += 1
+    return "".join(out), gated
+
+
+def without_solutions(notebook):
+    """``notebook`` (a chapter's executed notebook, changed in place and returned) without any solution:
+    no ``{solution}`` block, and no cell, markdown or code (with its output), of a gated solution. The
+    course edition's download of a chapter (``book/_ext/companion.py``)."""
+    cells, gated = [], False
+    for cell in notebook.cells:
+        if cell.cell_type == "markdown":
+            cell.source, gated = markdown_without_solutions(cell.source, gated)
+            if cell.source.strip():
+                cells.append(cell)
+        elif not gated:
+            cells.append(cell)
+    if gated:
+        raise ValueError("a '{solution-start}' has no '{solution-end}'")
+    notebook.cells = cells
+    return notebook
+
+
 def exercise_notebooks():
     return sorted(HERE.glob("[0-9][0-9]-*.md"))
 
 
+@functools.cache
 def _plain_notebook():
     """The book's converter of MyST Markdown to plain Markdown (book/_ext/plain_notebook.py)."""
     import importlib.util

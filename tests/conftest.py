@@ -123,11 +123,13 @@ def quick_benchmark(tmp_path_factory):
 # --- the built book, shared by every test that reads it ---------------------------------------
 # The book is executed once per test session, by the README's build command, and every test of the
 # chapters, the exercise pages, their downloads and the site reads that one build (nothing executes a
-# chapter a second time). The build starts in the background as soon as the tests are collected, so it
-# runs on one core while the library's tests run on the other; the tests that read it are moved to the
-# end of the session and wait for it there. The PDF (`make pdf`, which reuses that execution) is made
-# after the book in the same background job, while the tests of the site run; the tests that read it
-# (`built_pdf`) come last. CLOSEDLOOP_SITE_BUILT=1 reads the _build/html and _build/pdf already there.
+# chapter a second time, except the downloads' run in a plain Jupyter, tests/test_downloads.py). The build
+# starts in the background as soon as the tests are collected, so it runs on one core while the library's
+# tests run on the other; the tests that read it are moved to the end of the session and wait for it there.
+# The course edition (`make course`) and the PDF (`make pdf`), which reuse that execution, are made after
+# the book in the same background job, while the tests of the site run; the tests that read them
+# (`built_course`, `built_pdf`) come last. CLOSEDLOOP_SITE_BUILT=1 reads the _build/html,
+# _build/course/html and _build/pdf already there.
 import os                                  # noqa: E402
 import signal                              # noqa: E402
 import subprocess                          # noqa: E402
@@ -138,9 +140,10 @@ from print_pdf import chromium             # noqa: E402  (book/print: the browse
 
 ROOT = Path(__file__).resolve().parents[1]
 BUILD_LOG = ROOT / "_build" / "test-build.log"
+COURSE_LOG = ROOT / "_build" / "test-course.log"
 PDF_LOG = ROOT / "_build" / "test-pdf.log"
 #: make's target for each fixture that reads a build, in the order they are built, and its log.
-BUILDS = {"built_site": ("book", BUILD_LOG), "built_pdf": ("pdf", PDF_LOG)}
+BUILDS = {"built_site": ("book", BUILD_LOG), "built_course": ("course", COURSE_LOG), "built_pdf": ("pdf", PDF_LOG)}
 
 
 class BackgroundBuild:
@@ -225,6 +228,16 @@ def built_site(request):
     _wait_for(request, "book", BUILD_LOG)
     html = ROOT / "_build" / "html"
     assert (html / "index.html").exists(), f"no built site in {html}"
+    return html
+
+
+@pytest.fixture(scope="session")
+def built_course(request):
+    """``_build/course/html``, the course edition, built once for the session by ``make -s course`` after
+    the book (from the same execution cache: nothing is executed again)."""
+    _wait_for(request, "course", COURSE_LOG)
+    html = ROOT / "_build" / "course" / "html"
+    assert (html / "index.html").exists(), f"no course edition in {html}"
     return html
 
 

@@ -1,7 +1,9 @@
 """The notebooks a reader downloads from the built site, read and run as a reader would.
 
-Each chapter's and each exercise page's download (``_build/html/_sources/<page>.ipynb``,
-made by ``book/_ext/ipynb_download.py``) is checked. A download fails on:
+Every notebook page of the site (the thirteen chapters, their exercise pages, the notation page
+and the appendix on chapter 8's data) offers its notebook in its download menu
+(``_build/html/_sources/<page>.ipynb``, made by ``book/_ext/ipynb_download.py``), and each is
+checked. A download fails on:
 
 - MyST markup in a markdown cell: a directive fence (```` ```{note} ````), a role
   (``{doc}`...` ``), a ``:label:`` line, a target ``(label)=``, a MyST comment; Jupyter shows
@@ -13,14 +15,17 @@ made by ``book/_ext/ipynb_download.py``) is checked. A download fails on:
 A chapter's download is the notebook the book's build executed (the build runs every chapter once,
 and stops on any error): its code cells must be the ones its page shows (the cells tagged
 ``remove-cell``, which glue computed values into the prose, are left out, and no cell left calls
-``glue``), in order, each run once, top to bottom, in one kernel, with no error, and every data file its code names must be linked from its
-first cell (the files a reader fetches beside it). Running it again here would repeat the build's run.
+``glue``), in order, each run once, top to bottom, in one kernel, with no error, and every data file
+its code names must be linked from its first cell (the files a reader fetches beside it).
 
-An exercise page's download is its student version, which the build does not run: each is copied
-alone into a fresh folder, with only the files its first cell asks for beside it (fetched through
-its links, as a reader would), and run top to bottom by nbclient in a fresh kernel there, with the
-library importable as after ``pip install``. The only errors allowed are the "not yet answered"
-stops, one per placeholder ``...``.
+**In a plain Jupyter.** Every download is then run as a reader runs it: in a fresh virtual
+environment that holds only the site's own wheel with its ``plot`` extra, ipykernel and nbclient (no
+Jupyter Book, no MyST-NB, nothing of the repository), made once for the session from the built site
+(pip installs the versions ``requirements/lock.txt`` pins, from the files pip already has), each
+download copied alone into a fresh folder with only the files its first cell links to (fetched as a
+reader would), and run top to bottom by that environment's nbclient in a kernel of that environment
+(``tests/plain_jupyter.py``), two at a time. A chapter and the other pages must run without an error;
+an exercise page may stop only at its "not yet answered" placeholders, one per ``...``.
 
 The site is built once for the session (the ``built_site`` fixture of conftest.py, the README's
 ``make book``); set ``CLOSEDLOOP_SITE_BUILT=1`` to test the ``_build/html`` already there instead.
@@ -32,16 +37,17 @@ import os
 import re
 import shutil
 import zipfile
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import pytest
 
+from ._toc import toc_pages
+
 ROOT = Path(__file__).resolve().parents[1]
 HTML = ROOT / "_build" / "html"
-#: Every page with a download: the thirteen chapters and their exercise pages.
-PAGES = [f"chapters/{p.stem}" for p in sorted((ROOT / "chapters").glob("[0-9][0-9]-*.md"))] + \
-        [f"exercises/{p.stem}" for p in sorted((ROOT / "exercises").glob("[0-9][0-9]-*.md"))]
+#: Every page with a download: each page of the table of contents that is a notebook (a jupytext header).
+DOWNLOADS = [page for page in toc_pages() if (ROOT / f"{page}.md").read_text().startswith("---\njupytext:")]
+PAGES = [p for p in DOWNLOADS if p.startswith(("chapters/", "exercises/"))]
 EXERCISE_PAGES = [p for p in PAGES if p.startswith("exercises/")]
 #: File names a chapter's code may read beside its notebook (data), which its first cell must link.
 DATA_FILE = re.compile(r"""["']([\w.-]+\.(?:json|csv|npz|npy|txt|dat))["']""")
@@ -129,53 +135,94 @@ def solutions(page):
     return code - outside, prose
 
 
-# --- running a download as a reader would --------------------------------------------------
-def reader_environment():
-    """The kernel's environment: the library importable (as after pip install), nothing of the repository else."""
-    env = dict(os.environ)
-    paths = [str((ROOT / p).resolve()) if not os.path.isabs(p) else p
-             for p in env.get("PYTHONPATH", "").split(os.pathsep) if p]
-    env["PYTHONPATH"] = os.pathsep.join(p for p in paths if Path(p) != ROOT / "exercises")
+# --- running a download as a reader would, in a plain Jupyter ---------------------------------
+def site_wheel():
+    """The wheel the site offers (``_downloads/closedloop-<version>-py3-none-any.whl``)."""
+    found = sorted((HTML / "_downloads").glob("closedloop-*-py3-none-any.whl"))
+    assert len(found) == 1, f"the site offers {len(found)} wheels: {found}"
+    return found[0]
+
+
+def plain_environment_variables(home):
+    """What a reader's shell would have: no PYTHONPATH, no Jupyter settings, no virtual environment
+    of ours, no PYTHONDONTWRITEBYTECODE (the first kernel to import a module compiles it for the
+    others, as on a reader's machine); a home of its own; the session's code cache (conftest.py)."""
+    keep = ("PATH", "LANG", "LC_ALL", "TMPDIR", "CLOSEDLOOP_CACHE_DIR")
+    env = {name: os.environ[name] for name in keep if name in os.environ}
+    env.update(HOME=str(home), MPLBACKEND="agg")
     return env
 
 
-def run_download(page):
-    """Copy ``page``'s download and what its first cell links to into a fresh folder, run it there.
+@pytest.fixture(scope="module")
+def plain_python(built, tmp_path_factory):
+    """The Python of a fresh virtual environment holding the site's wheel with its ``plot`` extra,
+    ipykernel and nbclient, and nothing else (no pip either: the project's pip installs into it).
 
-    Returns (the executed notebook, or the exception that stopped it; the linked files).
+    pip takes the versions requirements/lock.txt pins, from the files it already has (the
+    project's environment was made from the same lock). It compiles nothing: each module is
+    compiled when a kernel first imports it (two thirds of what pip would compile is never imported).
     """
-    import tempfile
+    import subprocess
+    import sys
+    import venv
 
-    import nbclient
+    folder = tmp_path_factory.mktemp("plain-jupyter") / "env"
+    venv.EnvBuilder(with_pip=False).create(folder)
+    python = folder / "bin" / "python"
+    subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "--quiet",
+                    "--disable-pip-version-check", "--no-compile", "-c", str(ROOT / "requirements" / "lock.txt"),
+                    f"{site_wheel()}[plot]", "ipykernel", "nbclient"], check=True, capture_output=True)
+    return python
+
+
+def fetch(page, folder):
+    """Copy ``page``'s download into ``folder``, with what its first cell links to (a .zip unpacked there)."""
     import nbformat
-    from jupyter_client.manager import AsyncKernelManager
 
     source = HTML / "_sources" / f"{page}.ipynb"
-    notebook = nbformat.read(source, as_version=4)
-    folder = Path(tempfile.mkdtemp(prefix="reader-"))
-    links = re.findall(r"\]\(([^)]+)\)", notebook.cells[0].source)
+    links = re.findall(r"\]\(([^)]+)\)", nbformat.read(source, as_version=4).cells[0].source)
     for link in links:
         fetched = source.parent / link
         if link.endswith(".zip"):
             with zipfile.ZipFile(fetched) as archive:
                 archive.extractall(folder)
-        else:
+        elif fetched.is_file():
             (folder / link).parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(fetched, folder / link)
     shutil.copyfile(source, folder / source.name)
-    os.environ.update(reader_environment())
-    # Unix sockets in the folder, not TCP ports: two kernels started at once can pick the same free port
-    # (jupyter_client finds one, closes it, and the kernel binds it later), and one of them then dies
-    kernel = AsyncKernelManager(kernel_name="python3", transport="ipc", connection_file=str(folder / ".kernel.json"))
-    client = nbclient.NotebookClient(notebook, km=kernel, timeout=600, allow_errors=True,
-                                     resources={"metadata": {"path": str(folder)}})
+    return source.name
+
+
+def run_plain(python, home, pages):
+    """Each of ``pages``' downloads run in a fresh folder of its own by the plain environment, one after
+    the other in one runner process (tests/plain_jupyter.py), each in a fresh kernel.
+
+    Returns {page: (the executed notebook, the runner's report: the kernel's prefix, and why it stopped early)}.
+    """
+    import json
+    import subprocess
+    import tempfile
+
+    import nbformat
+
+    jobs = []
+    for page in pages:
+        folder = Path(tempfile.mkdtemp(prefix="reader-"))
+        jobs.append((page, folder, fetch(page, folder), folder.parent / f"{folder.name}.out.ipynb"))
     try:
-        client.execute(cleanup_kc=True)              # the kernel is shut down although the manager is ours
-    except Exception as error:                       # kept, and raised by the page's own test
-        return f"{type(error).__name__}: {error}"[:3000], links
+        done = subprocess.run([str(python), str(ROOT / "tests" / "plain_jupyter.py"),
+                               *[str(part) for _, folder, name, output in jobs for part in (folder, name, output)]],
+                              cwd=home, env=plain_environment_variables(home), capture_output=True, text=True,
+                              timeout=900 * len(jobs))
+        assert done.returncode == 0, f"{pages}: the runner failed:\n{done.stderr[-3000:]}"
+        reports = [json.loads(line) for line in done.stdout.strip().splitlines() if line.startswith("{")]
+        assert len(reports) == len(jobs), done.stdout[-2000:]
+        return {page: (nbformat.read(output, as_version=4), report)
+                for (page, _, _, output), report in zip(jobs, reports)}
     finally:
-        shutil.rmtree(folder, ignore_errors=True)
-    return notebook, links
+        for _, folder, _, output in jobs:
+            shutil.rmtree(folder, ignore_errors=True)
+            output.unlink(missing_ok=True)
 
 
 @pytest.fixture(scope="module")
@@ -184,10 +231,20 @@ def built(built_site):
 
 
 @pytest.fixture(scope="module")
-def executed(built):
-    """Every exercise page's download, run once in its own fresh folder (two at a time)."""
-    with ProcessPoolExecutor(max_workers=max(1, min(len(EXERCISE_PAGES), os.cpu_count() or 1))) as pool:
-        return dict(zip(EXERCISE_PAGES, pool.map(run_download, EXERCISE_PAGES)))
+def executed(plain_python, tmp_path_factory):
+    """Every download, run once in a plain Jupyter, each in its own fresh folder (two at a time)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    home = tmp_path_factory.mktemp("reader-home")
+    # one runner per core, each given every other page, the chapters first (they take longest, so that
+    # the runners end together rather than one waiting for the other)
+    workers = max(1, min(2, os.cpu_count() or 1))
+    order = sorted(DOWNLOADS, key=lambda page: not page.startswith("chapters/"))
+    executed = {}
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        for found in pool.map(lambda k: run_plain(plain_python, home, order[k::workers]), range(workers)):
+            executed.update(found)
+    return executed
 
 
 def downloaded(page):
@@ -199,7 +256,15 @@ def downloaded(page):
     return nbformat.read(path, as_version=4)
 
 
-@pytest.mark.parametrize("page", PAGES)
+def test_every_notebook_page_offers_its_download_and_nothing_else_is_offered(built):
+    offered = sorted(path.relative_to(HTML / "_sources").with_suffix("").as_posix()
+                     for path in (HTML / "_sources").rglob("*.ipynb"))
+    assert offered == sorted(DOWNLOADS)
+    # the thirteen chapters, their thirteen exercise pages, the notation page and the appendix
+    assert len(DOWNLOADS) == 28 and {"book/notation", "book/appendix-provenance"} <= set(DOWNLOADS)
+
+
+@pytest.mark.parametrize("page", DOWNLOADS)
 def test_a_download_has_no_myst_and_no_marker(built, page):
     notebook = downloaded(page)
     for index, cell in enumerate(notebook.cells):
@@ -256,17 +321,66 @@ def test_the_data_file_detector_finds_what_chapter_8_reads():
     assert found and set(found) == {"benchmark.json"}
 
 
-@pytest.mark.parametrize("page", EXERCISE_PAGES)
-def test_an_exercise_download_runs_and_stops_only_at_its_placeholders(executed, page):
-    notebook, _ = executed[page]
-    assert not isinstance(notebook, str), f"{page} did not run: {notebook}"
+#: The archive's notebooks that read files beside them, one of each kind: a chapter's data (found by walking
+#: up to book/data), the appendix's (data/ beside it) and an exercise page's checks (exercises/checking).
+FROM_THE_ARCHIVE = ["chapters/08-error-vs-runtime", "book/appendix-provenance", "exercises/01-closed-loop-systems"]
+
+
+def test_the_archive_runs_as_unzipped(built, plain_python, tmp_path):
+    """The companion's archive, unzipped, runs its notebooks where they lie (the page "Run it yourself")."""
+    import json
+    import subprocess
+
+    import nbformat
+
+    archive = next((HTML / "_downloads").glob("closedloop-companion-*.zip"))
+    with zipfile.ZipFile(archive) as stream:
+        stream.extractall(tmp_path)
+    top = tmp_path / archive.stem
+    for page in FROM_THE_ARCHIVE:
+        notebook = top / f"{page}.ipynb"
+        output = tmp_path / f"{notebook.stem}.out.ipynb"
+        done = subprocess.run([str(plain_python), str(ROOT / "tests" / "plain_jupyter.py"), str(notebook.parent),
+                               notebook.name, str(output)], cwd=notebook.parent,
+                              env=plain_environment_variables(tmp_path), capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0 and "stopped" not in json.loads(done.stdout.splitlines()[-1]), done.stderr[-2000:]
+        errors = [o["ename"] for c in nbformat.read(output, as_version=4).cells if c.cell_type == "code"
+                  for o in c.get("outputs", []) if o.get("output_type") == "error"]
+        assert set(errors) <= ({"NotAnswered"} if page.startswith("exercises/") else set()), f"{page}: {errors}"
+
+
+def test_the_plain_environment_has_no_book_tool_and_not_the_repository(plain_python):
+    import subprocess
+
+    script = ("import importlib.metadata as m, json, closedloop; print(json.dumps([closedloop.__file__, "
+              "sorted(d.metadata['Name'].lower() for d in m.distributions())]))")
+    done = subprocess.run([str(plain_python), "-c", script], cwd=plain_python.parents[2], check=True,
+                          capture_output=True, text=True, env=plain_environment_variables(plain_python.parents[2]))
+    import json
+
+    where, installed = json.loads(done.stdout)
+    assert Path(where).is_relative_to(plain_python.parents[1]), f"closedloop imported from {where}"
+    assert {"closedloop", "matplotlib", "bokeh", "ipykernel", "nbclient"} <= set(installed)
+    assert not {"jupyter-book", "myst-nb", "myst-parser", "jupytext", "sphinx", "jupyter-cache", "pytest"} & \
+        set(installed)
+
+
+@pytest.mark.parametrize("page", DOWNLOADS)
+def test_a_download_runs_in_a_plain_jupyter(executed, plain_python, page):
+    """Run as a reader runs it (see the module's docstring): a chapter with no error; an exercise page
+    stops only at its placeholders."""
+    notebook, report = executed[page]
+    assert "stopped" not in report, f"{page} did not run to its end: {report['stopped']}"
+    assert Path(report["prefix"]) == plain_python.parents[1] and \
+        Path(report["kernel"][1]).is_relative_to(plain_python.parents[1]), f"{page}: not the plain kernel: {report}"
     code = [c for c in notebook.cells if c.cell_type == "code"]
-    assert all(c.get("execution_count") for c in code), f"{page}: a code cell was not executed"
+    assert code and all(c.get("execution_count") for c in code), f"{page}: a code cell was not executed"
     errors = [o for c in code for o in c.get("outputs", []) if o.get("output_type") == "error"]
-    placeholders = sum(c.source.count("= ...") for c in code)
+    placeholders = sum(c.source.count("= ...") for c in code) if page in EXERCISE_PAGES else 0
     assert [e["ename"] for e in errors] == ["NotAnswered"] * placeholders, \
         f"{page}: {[e['ename'] + ': ' + e['evalue'] for e in errors]}"
     assert all("is not yet answered" in e["evalue"] for e in errors)
+    assert page not in EXERCISE_PAGES or placeholders >= 4
 
 
 def test_the_converter_leaves_plain_markdown_and_keeps_math():

@@ -126,3 +126,49 @@ def test_one_numbering_from_the_chapter_to_its_exercise_page_and_its_checks(path
     assert f"{on_page[0]} to {on_page[-1]}" in " ".join(tail)
     head = path.read_text().split("```{code-cell}")[0]
     assert f"{{doc}}`../chapters/{path.stem}`" in head and f"{in_chapter[0]} to {in_chapter[-1]}" in head
+
+
+def test_every_exercise_states_its_time_and_difficulty():
+    """exercises/effort.yml lists every exercise of the book, chapters and exercise pages, and no other."""
+    import yaml
+
+    listed = yaml.safe_load((EXERCISES / "effort.yml").read_text())
+    numbers = [n for path in NOTEBOOKS for n in exercise_numbers(ROOT / "chapters" / path.name) + exercise_numbers(path)]
+    assert len(numbers) > 100 and sorted(listed) == sorted(numbers)
+    for number, (minutes, level) in listed.items():
+        assert isinstance(minutes, int) and 5 <= minutes <= 60 and level in ("easy", "medium", "hard"), number
+    assert {level for _, level in listed.values()} == {"easy", "medium", "hard"}
+
+
+def test_the_student_versions_state_each_exercise_s_time_and_difficulty():
+    import re
+
+    import yaml
+
+    listed = yaml.safe_load((EXERCISES / "effort.yml").read_text())
+    for path in NOTEBOOKS:
+        headings = re.findall(r"^### Exercise (\d+\.\d+): .* · (\d+) min · (\w+)$",
+                              make_student.student_markdown(path.read_text()), re.M)
+        assert [number for number, _, _ in headings] == exercise_numbers(path), path.name
+        assert all(listed[n] == [int(m), level] for n, m, level in headings), path.name
+
+
+@pytest.mark.parametrize("edition", ["", "vi/"], ids=["en", "vi"])
+def test_the_site_states_each_exercise_s_time_and_difficulty(built_site, edition):
+    """After each exercise's title, "· 10 min · easy" (the Vietnamese edition: "· 10 phút · dễ")."""
+    import re
+
+    import yaml
+
+    listed = yaml.safe_load((EXERCISES / "effort.yml").read_text())
+    words = {"": ("min", {"easy": "easy", "medium": "medium", "hard": "hard"}),
+             "vi/": ("phút", {"easy": "dễ", "medium": "trung bình", "hard": "khó"})}[edition]
+    for path in NOTEBOOKS:
+        for page in (f"chapters/{path.stem}", f"exercises/{path.stem}"):
+            text = (built_site / edition / f"{page}.html").read_text()
+            shown = re.findall(r'(\d+\.\d+) \(.*?<span class="exercise-effort"> · (\d+) (\S+) · ([^<]+)</span>', text)
+            numbers = exercise_numbers(ROOT / f"{page}.md")
+            assert [number for number, *_ in shown] == numbers, page
+            for number, minutes, unit, level in shown:
+                assert (int(minutes), unit, level) == (listed[number][0], words[0], words[1][listed[number][1]]), \
+                    f"{page}: {number}"

@@ -4,7 +4,10 @@ The PDF is made once per session after the book (the ``built_pdf`` fixture of co
 with ``pdfinfo``, ``pdftotext``, ``pdfimages`` and ``pdftohtml -xml`` (its bookmarks). Everything the
 tests expect is read from the sources or from the built site, never typed here:
 
-- its length: every page of the site starts a printed page, and the pages hold text;
+- its length: every page of the site starts a printed page (but the rubrics, for instructors only), and
+  the pages hold text;
+- its title page: the title, the authors, the version and its date, and the names of the wheel and
+  the archive the web edition offers;
 - every page's title (the first heading of its source) in the text, the chapters with their number,
   and the contents' page numbers pointing at those titles;
 - numbered like the site: every numbered heading of the built site's chapters is a bookmark, with
@@ -32,14 +35,20 @@ from pathlib import Path
 
 import pytest
 import yaml
-from print_pdf import TEXTS
+from print_pdf import TEXTS, TITLE_PAGE, instructors_only
 
-from ._toc import toc_documents
+from ._toc import toc_documents as toc_pages_and_numbering
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES_OUT = ROOT / "_build" / "pdf" / "pages"
 #: Text an animation's and an interactive figure's note begin with (print_pdf.TEXTS, English).
 NOTES = {kind: text.split("{chapter}")[0] for kind, text in TEXTS["en"].items()}
+
+
+def toc_documents():
+    """[(docname, numbered)] of every page the PDF prints: the site's, without the pages for instructors
+    only (the rubrics), which the PDF leaves out as the course edition does."""
+    return [(docname, numbered) for docname, numbered in toc_pages_and_numbering() if docname not in instructors_only()]
 
 
 def run(*command):
@@ -452,3 +461,18 @@ def test_both_pdfs_print_the_same_display_equations(pdf):
     vietnamese = translations.display_equations((ROOT / "_build" / "vi" / "_build" / "singlehtml" / page).read_text())
     assert english and not [tex for tex in vietnamese if tex in ("", "::")]
     assert english == vietnamese
+
+
+def test_the_title_page_names_the_book_its_version_and_its_downloads(pages):
+    """The citation (CITATION.cff, through the pages' <meta> tags) and the downloads on page 1; no rubric."""
+    rubrics = [source_title(docname) for docname in instructors_only()]     # (puts book/_ext on the path)
+    import companion
+
+    citation = yaml.safe_load((ROOT / "CITATION.cff").read_text(encoding="utf-8"))
+    first = typographic(pages[0])
+    assert citation["authors"][0]["name"] in first
+    version_line = TITLE_PAGE["en"]["version"].format(version=companion.version(),
+                                                      date=citation["date-released"].isoformat())
+    assert version_line in first
+    assert companion.wheel_name() in first and companion.archive_name() in first
+    assert rubrics and [t for t in rubrics if typographic(t) in typographic(" ".join(pages))] == []

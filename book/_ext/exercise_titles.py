@@ -5,6 +5,10 @@ Every ``{exercise}`` of the book is ``:nonumber:`` and carries its number in its
 ``check("6.3", ...)`` share one numbering (sphinx-exercise would number through the book).
 sphinx-exercise shows such a title in parentheses; this post-transform, run after its own
 (priorities 20-22), moves the number out of them, in exercises and in their solutions' titles.
+
+Each exercise's title then ends with its expected time and difficulty, "· 10 min · easy", in the
+edition's language (``exercises/effort.yml``, ``plain_notebook.exercise_effort``); a solution's title
+does not repeat them.
 """
 
 import re
@@ -14,6 +18,8 @@ from sphinx.transforms import SphinxTransform
 from sphinx.transforms.post_transforms import SphinxPostTransform
 
 NUMBER = re.compile(r"^(\d+(?:\.\d+)+):\s*")
+#: The number in a renumbered title: "Exercise 6.3 (title)", "Bài tập 6.3 (...)".
+NUMBER_IN_TITLE = re.compile(r"(\d+(?:\.\d+)+) \(")
 
 
 def translatable(directive):
@@ -87,9 +93,20 @@ class NumberExerciseTitles(SphinxPostTransform):
     def run(self, **kwargs):
         for title in list(self.document.findall(nodes.title)):
             parent = title.parent
-            if parent is not None and {"exercise", "solution", "solution-start", "exercise-start"} & \
-                    set(parent.get("classes", [])):
+            classes = set(parent.get("classes", [])) if parent is not None else set()
+            if {"exercise", "solution", "solution-start", "exercise-start"} & classes:
                 self.renumber(title)
+            if {"exercise", "exercise-start"} & classes:
+                self.add_effort(title)
+
+    def add_effort(self, title):
+        """" · 10 min · easy" after an exercise's title (``exercises/effort.yml``)."""
+        from plain_notebook import exercise_effort
+
+        number = NUMBER_IN_TITLE.search(title.astext())
+        if number:
+            effort = " · " + exercise_effort(number.group(1), (self.config.language or "en").split("_")[0])
+            title += nodes.inline(effort, effort, classes=["exercise-effort"])
 
     def renumber(self, element):
         """In ``element``'s children (and theirs): " (" then "6.3: rest" becomes " 6.3 (" then "rest"."""

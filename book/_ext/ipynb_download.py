@@ -36,13 +36,19 @@ from plain_notebook import Resolver, convert_notebook
 STUDENT_PAGES = ["exercises/[0-9][0-9]-*"]
 #: Files (or folders, shipped zipped) that a page's notebook needs beside it: pattern -> paths
 #: relative to the source folder; they go beside the notebook under the same path.
+#: A path inside the page's own folder keeps its path relative to that folder (``exercises/checking`` beside
+#: an exercise page is ``checking``, ``book/data/benchmark.json`` beside a page of ``book/`` is ``data/...``);
+#: any other keeps its whole path (``book/data/...`` beside a chapter), so that the page's code finds it
+#: where it finds it in the repository. The companion's archive holds each at its path in the repository.
 DOWNLOAD_FILES = {
     "exercises/[0-9][0-9]-*": ["exercises/checking"],
     "chapters/08-error-vs-runtime": ["book/data/benchmark.json"],
     "chapters/09-stiffness-and-long-runs": ["book/data/long_runs.json"],
+    "book/appendix-provenance": ["book/data/benchmark.json"],
 }
-RUN_NOTE = ("> **To run this notebook** you need Python 3.11 with the `closedloop` library installed: "
-            "`pip install .` in a copy of the book's repository (its README says more).")
+RUN_NOTE = ("> **To run this notebook** you need Python 3.11 or later with the book's library, `closedloop`, "
+            "and its `plot` extra: `pip install \"{wheel}[plot]\"`, with the wheel {wheel} from the book's "
+            "site, whose page *Run it yourself* says more.")
 
 
 class BookResolver(Resolver):
@@ -187,15 +193,21 @@ class BookResolver(Resolver):
         return None
 
 
-def student_notebook(app, docname):
-    """The student version of an exercise page, from its source, by exercises/make_student.py."""
-    import jupytext
-
+def make_student(app):
+    """The module exercises/make_student.py, which knows how solutions are marked."""
     script = Path(app.srcdir) / "exercises" / "make_student.py"
     spec = importlib.util.spec_from_file_location("make_student", script)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    return jupytext.reads(module.student_markdown(Path(app.env.doc2path(docname)).read_text()), fmt="md:myst")
+    return module
+
+
+def student_notebook(app, docname):
+    """The student version of an exercise page, from its source, by exercises/make_student.py."""
+    import jupytext
+
+    return jupytext.reads(make_student(app).student_markdown(Path(app.env.doc2path(docname)).read_text()),
+                          fmt="md:myst")
 
 
 def executed_notebook(app, pagename):
@@ -219,7 +231,8 @@ def ship(app, pagename, paths):
     links = []
     for path in paths:
         source = Path(app.srcdir) / path
-        name = posixpath.basename(path) if path.startswith(posixpath.dirname(pagename) + "/") else path
+        here = posixpath.dirname(pagename)
+        name = posixpath.relpath(path, here) if path.startswith(here + "/") else path
         target = folder / name
         target.parent.mkdir(parents=True, exist_ok=True)
         if source.is_dir():
@@ -249,10 +262,14 @@ def add_ipynb_source(app, pagename, templatename, context, doctree):
     if student:
         notebook = student_notebook(app, pagename)
         context["sourcename"] = ""       # nor is its MyST source, solutions and all, copied and offered
+    elif getattr(app.config, "closedloop_edition", "") == "course":
+        make_student(app).without_solutions(notebook)     # the course edition's: no solution at all
     convert_notebook(notebook, resolver)
     needs = [path for pattern, paths in DOWNLOAD_FILES.items() if fnmatch.fnmatch(pagename, pattern)
              for path in paths]
-    note = RUN_NOTE
+    from companion import wheel_name
+
+    note = RUN_NOTE.format(wheel=wheel_name())
     if needs:
         note += " It also needs, beside it in the same folder: " + \
             ", ".join(text for _, text in ship(app, pagename, needs)) + "."

@@ -11,6 +11,9 @@ What a role names (a page's title, an equation's number, a glued value, a citati
 of a :class:`Resolver`; the one here knows nothing of the book and answers with the role's
 own text. The Sphinx extension ``ipynb_download`` passes one that asks the built book.
 
+Each exercise's heading ends with its expected time and difficulty (:func:`exercise_effort`, from
+``exercises/effort.yml``), as on the site and in the student notebooks.
+
 Code cells tagged ``remove-cell``, which the page does not show (they glue computed values into the
 prose), are dropped: the download holds the code the reader sees, and nothing that needs the build.
 Code cells lose the solution markers of the exercise notebooks (``# BEGIN SOLUTION``,
@@ -24,7 +27,7 @@ import mimetypes
 import re
 from pathlib import Path
 
-__all__ = ["Resolver", "convert_markdown", "convert_notebook", "strip_markers", "MARKER"]
+__all__ = ["Resolver", "convert_markdown", "convert_notebook", "strip_markers", "MARKER", "exercise_effort"]
 
 #: A line that only the build reads: the solution markers of the exercise notebooks.
 MARKER = re.compile(r"^[ \t]*# (BEGIN SOLUTION|END SOLUTION|STUDENT:).*(\n|$)", re.M)
@@ -38,6 +41,34 @@ LABEL_HREF = re.compile(r"^[A-Za-z][\w-]*$")
 DROPPED = {"toctree", "tableofcontents", "contents", "bibliography", "solution-end", "exercise-end",
            "glossary-end", "code-cell", "raw-cell"}
 CONTAINERS = {"grid", "grid-item", "tab-set", "div", "container", "only", "rst-class"}
+
+
+#: Every exercise's expected time and difficulty: ``{"6.3": [minutes, "easy" | "medium" | "hard"]}``.
+EFFORT_FILE = Path(__file__).resolve().parents[2] / "exercises" / "effort.yml"
+#: How they are written, by language: after the exercise's title, e.g. "10 min · easy".
+EFFORT_TEXTS = {"en": {"format": "{minutes} min · {level}", "easy": "easy", "medium": "medium", "hard": "hard"},
+                "vi": {"format": "{minutes} phút · {level}", "easy": "dễ", "medium": "trung bình", "hard": "khó"}}
+
+
+def efforts():
+    """``exercises/effort.yml``: ``{number: (minutes, level)}``."""
+    import yaml
+
+    return {str(number): (int(minutes), level)
+            for number, (minutes, level) in yaml.safe_load(EFFORT_FILE.read_text(encoding="utf-8")).items()}
+
+
+def exercise_effort(number: str, language: str = "en") -> str:
+    """The expected time and difficulty of exercise ``number`` ("6.3"), as written after its title.
+
+    Raises
+    ------
+    KeyError
+        If ``exercises/effort.yml`` does not list the exercise.
+    """
+    minutes, level = efforts()[number]
+    words = EFFORT_TEXTS.get(language, EFFORT_TEXTS["en"])
+    return words["format"].format(minutes=minutes, level=words[level])
 
 
 def parser():
@@ -189,7 +220,8 @@ class Converter:
             return ""
         if name in ("exercise", "exercise-start"):
             title = argument.strip()
-            heading = f"Exercise {title}" if re.match(r"\d+(\.\d+)*:", title) else \
+            number = re.match(r"(\d+(?:\.\d+)*):", title)
+            heading = f"Exercise {title} · {exercise_effort(number.group(1))}" if number else \
                 ("Exercise: " + title if title else "Exercise")
             return f"### {heading}\n\n{inner}".rstrip()
         if name in ("solution", "solution-start"):

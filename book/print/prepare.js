@@ -27,6 +27,17 @@
     return paragraph;
   };
 
+  // The pages for instructors only (the rubrics) out, with their entries in the contents below: the
+  // PDF is handed out, as the course edition is published.
+  const omitted = new Set((texts.omit || []).map((docname) => 'document-' + docname));
+  omitted.forEach((id) => {
+    const start = document.getElementById(id);
+    if (!start) return;
+    if (start.nextElementSibling) start.nextElementSibling.remove();
+    start.remove();
+  });
+  counts.omittedPages = omitted.size;
+
   // Every solution out: sphinx-exercise's {solution} and the gated solution-start/solution-end,
   // both a div.solution holding all that the solution shows (its code cells too).
   const solutions = [...article.querySelectorAll('div.solution')];
@@ -98,13 +109,22 @@
   title.className = 'pdf-title';
   title.textContent = document.title;
   titlePage.append(title);
-  const author = document.querySelector('.component-author');
-  if (author) {
-    const by = document.createElement('p');
-    by.className = 'pdf-author';
-    by.textContent = author.textContent.trim();
-    titlePage.append(by);
-  }
+  // The citation and the downloads, from the page's <meta> tags (book/_ext/companion.py).
+  const meta = (name) => {
+    const found = document.querySelector(`meta[name="${name}"]`);
+    return found ? found.getAttribute('content') : '';
+  };
+  const fill = (template) => template.replace(/\{(\w+)\}/g, (_, key) => meta('closedloop:' + key));
+  const line = (className, text) => {
+    const paragraph = document.createElement('p');
+    paragraph.className = className;
+    paragraph.textContent = text;
+    titlePage.append(paragraph);
+  };
+  line('pdf-author', meta('citation_author'));
+  line('pdf-version', fill(texts.version));
+  line('pdf-downloads', fill(texts.downloads));
+  if (meta('closedloop:repository')) line('pdf-downloads', fill(texts.repository));
   const licence = document.querySelector('.extra_footer');
   if (licence) {
     const small = document.createElement('div');
@@ -130,6 +150,7 @@
     }
     item.querySelectorAll('a[href^="#document-"]').forEach((a, index) => {
       const target = a.getAttribute('href').slice(1);
+      if (omitted.has(target)) return;
       const row = document.createElement('a');
       row.className = 'pdf-toc-entry';
       row.href = '#' + target;

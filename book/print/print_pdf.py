@@ -6,8 +6,9 @@ The input is Jupyter Book's single-page build (``jupyter-book build . --builder 
 the same pages as the site with the site's numbering. The page is opened in headless Chromium,
 served from 127.0.0.1 (nothing is fetched from the network: MathJax and BokehJS are in
 ``_static``), and once MathJax has typeset every formula and BokehJS has drawn every
-interactive figure, ``prepare.js`` makes it a book: every exercise solution removed, hidden code
-left out, each animation a still with a note, a title page and a table of contents in front,
+interactive figure, ``prepare.js`` makes it a book: every exercise solution removed, and the pages
+for instructors only (the rubrics), hidden code left out, each animation a still with a note, a title
+page (the title, the authors, the version and its date, the downloads) and a table of contents in front,
 each page of the site starting a printed page; ``print.css`` drops the site's navigation and
 sets the type. Chromium prints it on A4 with the title in the header, page numbers in the
 footer, and bookmarks from the headings.
@@ -71,6 +72,22 @@ TEXTS = {
                      "phát toàn bộ.",
         "interactive": "Hình tương tác: trong bản web của chương {chapter}, di chuột và nhấp vào hình "
                        "để khám phá.",
+    },
+}
+#: The title page's lines under the title and the authors, by language; the values come from the page's
+#: ``<meta>`` tags (``closedloop:version`` and the like, book/_ext/companion.py).
+TITLE_PAGE = {
+    "en": {
+        "version": "Version {version}, {date}",
+        "downloads": "Every chapter runs on your computer: the web edition's landing page offers the library, "
+                     "{wheel}, and the companion, {archive}, with every notebook.",
+        "repository": "Its sources: {repository}",
+    },
+    "vi": {
+        "version": "Phiên bản {version}, {date}",
+        "downloads": "Mọi chương đều chạy được trên máy của bạn: trang đầu của bản web có thư viện, "
+                     "{wheel}, và sách đồng hành, {archive}, với mọi notebook.",
+        "repository": "Mã nguồn: {repository}",
     },
 }
 #: Elements wider than the text column in the printed layout (MathJax's invisible copy for screen
@@ -225,12 +242,22 @@ def wait_for_bokeh(page):
     page.evaluate("() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
 
 
+def instructors_only():
+    """The pages the PDF leaves out, as the course edition does (book/_ext/companion.py)."""
+    sys.path.insert(0, str(ROOT / "book" / "_ext"))
+    from companion import INSTRUCTORS_ONLY
+
+    return list(INSTRUCTORS_ONLY)
+
+
 def texts_for(page):
-    """The notes in the page's language (``<html lang>``); English, said so, for a language without them."""
+    """The notes in the page's language (``<html lang>``); English, said so, for a language without them;
+    and the pages to leave out (``omit``)."""
     language = (page.evaluate("() => document.documentElement.lang") or "en").split("-")[0]
     if language not in TEXTS:
         print(f"print_pdf: no notes in language {language!r} in TEXTS; the English ones are used", file=sys.stderr)
-    return TEXTS.get(language, TEXTS["en"])
+    return {**TEXTS.get(language, TEXTS["en"]), **TITLE_PAGE.get(language, TITLE_PAGE["en"]),
+            "omit": instructors_only()}
 
 
 def prepare(page):

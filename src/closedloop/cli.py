@@ -119,10 +119,12 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser():
     """The argument parser of ``closedloop``."""
+    from . import __version__
     from .formulations import FORMULATION_NAMES
     from .slider_crank import CLASSIFY_RTOL_LIMIT, DEFAULT_READING, READINGS
 
     parser = _Parser(prog="closedloop", description="Simulate the slider-crank of Khang, Quyen and Mai Anh (2018).")
+    parser.add_argument("--version", action="version", version=f"closedloop {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sim = commands.add_parser("simulate", help="simulate one initial condition")
     sim.add_argument("--case", type=str, help="one of the paper's cases: 1, 2, 3 or 4")
