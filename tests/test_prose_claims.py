@@ -13,22 +13,32 @@ build):
   glued value fails.
 
 Each entry of `BOUNDS` is a comparison that a sentence states ("|f| never exceeds X", "stays within
-X times the tolerance", "lies between 3/2 and 2", "case 1 brings more than the deficit"); the test
-checks it against the build's own run of the chapter (its executed notebook in the execution
-cache, so it needs the built book): ``(chapter, words of the sentence, left, relation, right)``
-reads "left relation right", with relation one of ``<``, ``<=``, ``>``, ``>=``. Each side is
+X times the tolerance", "lies between 3/2 and 2", "case 1 brings more than the deficit", "at least
+X times as many steps"), for every chapter; the test checks it against the build's own run of the
+chapter (its executed notebook in the execution cache, so it needs the built book):
+``(chapter, words of the sentence, left, relation, right)`` reads "left relation right", with
+relation one of ``<``, ``<=``, ``>``, ``>=``. Each side is
 
-- a glue key: on the left its exact glued value; on the right the value *as the sentence prints
-  it*, formatted with the sentence's own format spec (``{glue:text}`key:.2f```), which the sentence
-  must paste. A bound is glued from ``closedloop.plotting.rounded_bound``, which rounds up an upper
-  bound (down a lower one) with the digits the page prints, so it holds for the value and for the
-  value as printed;
+- a glue key: on the right, the value *as the sentence prints it*, formatted with every format spec
+  the chapter's prose pastes it with (``{glue:text}`key:.2f```); on the left, the exact glued
+  value, and also the value as printed if the prose pastes it. A bound is glued from
+  ``closedloop.plotting.rounded_bound``, which rounds up an upper bound (down a lower one) at the
+  digits the page prints, and the value it bounds is glued unrounded beside it, under the key of
+  the bound with ``-exact`` appended (both in the hidden cell);
 - ``Printed(pattern, scale)``: every number the chapter's code cells print that the pattern's
   first group matches (times ``scale``), each of which must satisfy the relation; a pattern that
   matches nothing fails;
 - a number: an input of the sentence (``1.5`` for "3/2").
 
-To check a new sentence: glue its bound with `rounded_bound` in a hidden cell and add an entry.
+So that no bound escapes the list, every chapter's prose is read for values pasted right after a
+bound word ("below", "above", "at most", "at least", "within", "up to", "more than", "exceeds",
+"(to X", "agrees ... to X", "keeps ... to X", ...), before "or more" / "or less" / "or better", or
+continuing such a bound ("to X s and Y rad"): each must be the right side of an entry, or be listed
+in `NOT_BOUNDS` with the reason it bounds nothing (a value stated after "to", an input). Every
+``-exact`` value a chapter glues must be a side of an entry.
+
+To check a new sentence: glue its bound with `rounded_bound` and the exact value beside it in a
+hidden cell, and add an entry.
 """
 
 import functools
@@ -403,7 +413,8 @@ class Printed:
 
 
 #: (chapter file, words of the sentence, left, relation, right): "left relation right" must hold
-#: in the build's run of the chapter; see the module's docstring.
+#: in the build's run of the chapter; see the module's docstring. Every number the prose pastes
+#: right after a bound word is the right side of an entry (or in NOT_BOUNDS).
 BOUNDS = [
     ("02-lagrange-multipliers.md", "Both exponents", "ch02-position-drift-exponent", ">", 1.5),
     ("02-lagrange-multipliers.md", "Both exponents", "ch02-position-drift-exponent", "<", 2.0),
@@ -448,7 +459,65 @@ BOUNDS = [
      Printed(r"at most 2 pi \* \S+ = (\S+) J per turn"), "<=", "ch07-ripple-per-turn"),
     ("07-conclusions.md", "The torque per turn and the gas per stroke agree to within",
      Printed(r"torque per turn - gas per stroke: [+-]?(\S+) J"), "<=", "ch07-turn-stroke-gap"),
+    ("08-error-vs-runtime.md", "the reference is only just good enough in case 2",
+     "ch08-case2-reference-agreement-exact", "<=", "ch08-case2-reference-agreement"),
+    ("09-stiffness-and-long-runs.md", "just inside the edge", "ch09-rk45-loosest-alpha-h", "<", "ch09-rk45-edge"),
+    ("09-stiffness-and-long-runs.md", "The rule lies inside the stable region",
+     "ch09-rule-margin-exact", "<=", "ch09-rule-margin"),
+    ("10-singularities-and-switches.md", "meets the bound (10.a)",
+     "ch10-det-agreement-exact", "<=", "ch10-det-agreement"),
+    ("10-singularities-and-switches.md", "the crank rocks while the rod turns over and over",
+     "ch10-dead-angle-gap-exact", "<=", "ch10-dead-angle-gap"),
+    ("10-singularities-and-switches.md", "The redundant formulations, `NullSpace` with either basis",
+     "ch10-rocking-residual-exact", "<=", "ch10-rocking-residual"),
+    ("10-singularities-and-switches.md", "The redundant formulations, `NullSpace` with either basis",
+     "ch10-rocking-distance-exact", "<=", "ch10-rocking-distance"),
+    ("10-singularities-and-switches.md", "the budget of evaluations runs out at most",
+     "ch10-naive-overshoot-exact", "<=", "ch10-naive-overshoot"),
+    ("10-singularities-and-switches.md", "Its sticking time and final crank angle agree across tolerances",
+     "ch10-sticking-time-spread-exact", "<=", "ch10-sticking-time-spread"),
+    ("10-singularities-and-switches.md", "Its sticking time and final crank angle agree across tolerances",
+     "ch10-final-phi-spread-exact", "<=", "ch10-final-phi-spread"),
+    ("10-singularities-and-switches.md", "DOP853 takes at least",
+     "ch10-ramp-explicit-growth-exact", ">=", "ch10-ramp-explicit-growth"),
+    ("11-energy.md", "The torque puts in, per turn, what the gas takes out per cycle",
+     "ch11-turn-cycle-gap-exact", "<=", "ch11-turn-cycle-gap"),
+    ("11-energy.md", "Every turn of a rotating crank nearly balances",
+     "ch11-largest-ripple-per-turn-exact", "<=", "ch11-largest-ripple-per-turn"),
+    ("11-energy.md", "The ripple's work is at most", "ch11-ripple-share-exact", "<=", "ch11-ripple-share"),
+    ("12-basins.md", "At the step of the maps (grey line) the error is more than",
+     "ch12-margin-over-error-exact", ">", "ch12-margin-over-error"),
+    ("13-four-bar.md", "The five redundant ones stop within",
+     "ch13-redundant-stop-gap-exact", "<=", "ch13-redundant-stop-gap"),
+    ("13-four-bar.md", "short of the change point every formulation agrees",
+     "ch13-largest-pendulum-error-exact", "<=", "ch13-largest-pendulum-error"),
+    ("13-four-bar.md", "short of the change point every formulation agrees",
+     "ch13-largest-energy-drift-exact", "<=", "ch13-largest-energy-drift"),
+    ("13-four-bar.md", "the null-space formulation turns the crank back",
+     "ch13-turning-vs-limit-exact", "<=", "ch13-turning-vs-limit"),
 ]
+
+#: Numbers pasted after a bound word that state no bound on a result, each with the reason.
+NOT_BOUNDS = {
+    ("06-four-cases.md", "ch06-case1-excursion"): "the swing's reach itself ('to X rad from its start'), "
+                                                   "bounded by the entries above",
+    ("09-stiffness-and-long-runs.md", "ch09-augmented-drift"): "the drift the run ends with ('keeps growing, to X m')",
+    ("12-basins.md", "ch12-widest-margin"): "the widest swing's reach ('to X rad short of a whole turn')",
+    ("13-four-bar.md", "ch13-rank-limit"): "the library's rank test itself ('sigma_min below X times "
+                                          "sigma_max'), an input, not a result",
+}
+
+_RELATIONS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
+#: A glued value in prose, with its format spec.
+_ROLE = re.compile(r"\{glue(?::text)?\}`([^`:]+)(?::([^`]*))?`")
+#: Words right before a pasted value that make it a bound: "below X", "at most X", "(to X m)",
+#: "agrees ... to X", "keeps ... to X", "X ... or more".
+_BEFORE = re.compile(r"(?:\b(?:below|above|beyond|at most|at least|within|holds? to|up to|under|over|more than"
+                     r"|less than|fewer than|exceeds?|limit to)|[(,]\s*to"
+                     r"|\b(?:agrees?|keeps?)\b[^.;:]{0,80}?\bto)\s*$", re.I)
+_AFTER = re.compile(r"^[^.;:]{0,40}?\bor (?:more|less|better)\b", re.I)
+#: A value that continues a bound: "to X s and Y rad", "at most X m, Y".
+_CONTINUED = re.compile(r"^\s*[^\s.;:]{0,8}\s*(?:and|,)\s*$")
 
 #: What may hold digits without being a typed result: display and inline math, inline code,
 #: roles with their content (glue, ref, doc, cite, ...), Markdown links, and equation numbers
@@ -508,12 +577,35 @@ def defines(code, key):
     return False
 
 
-_RELATIONS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
+def stated_bounds(sentence):
+    """The glue keys that a sentence pastes as bounds: after a bound word, before "or more", or
+    continuing a bound ("to X s and Y rad")."""
+    previous_end, previous_bound = None, False
+    for match in _ROLE.finditer(sentence):
+        bound = bool(_BEFORE.search(sentence[:match.start()]) or _AFTER.search(sentence[match.end():])
+                     or (previous_bound and _CONTINUED.match(sentence[previous_end:match.start()])))
+        if bound:
+            yield match.group(1)
+        previous_end, previous_bound = match.end(), bound
 
 
-def executed(chapter, site):
-    """The build's run of a chapter: its notebook with outputs, from the execution cache."""
+def unlisted_bounds(chapter, markdown, bounds=None, not_bounds=None):
+    """``(key, sentence)`` of each bound the prose states that no entry checks: the key is not the
+    right side of an entry of `BOUNDS` for the chapter, nor in `NOT_BOUNDS`."""
+    bounds, not_bounds = BOUNDS if bounds is None else bounds, NOT_BOUNDS if not_bounds is None else not_bounds
+    listed = {right for file, _, _, _, right in bounds if file == chapter and isinstance(right, str)}
+    return [(key, sentence) for sentence in sentences(markdown) for key in stated_bounds(sentence)
+            if key not in listed and (chapter, key) not in not_bounds]
+
+
+@functools.lru_cache(maxsize=None)
+def glued_values(chapter, site):
+    """``key -> value`` of every ``glue`` in the build's run of a chapter's current source (its execution
+    cache), and the run's notebook."""
+    import ast
+
     import jupytext
+    import numpy
     from jupyter_cache import get_cache
 
     try:
@@ -521,16 +613,17 @@ def executed(chapter, site):
             jupytext.read(ROOT / "chapters" / chapter))
     except KeyError:
         pytest.fail(f"{chapter}: the build's execution cache holds no run of this page's current source")
-    return notebook
-
-
-def glued(notebook, key):
-    """The value the run glued under ``key``."""
+    values = {}
     for cell in notebook.cells:
         for output in cell.get("outputs", []):
-            if output.get("metadata", {}).get("scrapbook", {}).get("name") == key:
-                return eval(output["data"]["application/papermill.record/text/plain"], {"np": __import__("numpy")})
-    raise AssertionError(f"no cell of the run glues {key!r}")
+            record = output.get("metadata", {}).get("scrapbook")
+            if record:
+                text = output["data"][record["mime_prefix"] + "text/plain"]
+                try:
+                    values[record["name"]] = ast.literal_eval(text)
+                except (ValueError, SyntaxError):
+                    values[record["name"]] = eval(text, {"np": numpy})       # np.float64(...): the run's own output
+    return values, notebook
 
 
 def printed(notebook):
@@ -545,15 +638,18 @@ def printed(notebook):
 
 
 def as_printed(markdown, key, value):
-    """``value`` as the chapter's prose prints the glued ``key``: with its format spec, read back."""
-    specs = {spec for source in markdown
-             for spec in re.findall(r"\{glue(?::text)?\}`" + re.escape(key) + r"(?::([^`]*))?`", source)}
-    assert len(specs) == 1, f"the prose pastes {key} with {len(specs)} format specs: {specs}"
-    text = format(value, specs.pop())
-    return float(text.rstrip("%")) / 100 if text.endswith("%") else float(text)
+    """``value`` as the chapter's prose prints the glued ``key``, read back: one number per format spec
+    the prose pastes it with (none if the prose does not paste it)."""
+    specs = {spec for source in markdown for spec in re.findall(
+        r"\{glue(?::text)?\}`" + re.escape(key) + r"(?::([^`]*))?`", source)}
+    numbers = []
+    for spec in sorted(specs):
+        text = format(value, spec) if spec else str(value)
+        numbers.append(float(text.rstrip("%")) / 100 if text.endswith("%") else float(text))
+    return numbers
 
 
-def side(value, notebook, markdown, left):
+def side(value, values, notebook, markdown, left):
     """The numbers one side of a bound stands for (see the module's docstring)."""
     if isinstance(value, Printed):
         found = [float(number) * value.scale for text in printed(notebook)
@@ -561,8 +657,12 @@ def side(value, notebook, markdown, left):
         assert found, f"no printed output matches {value.pattern!r}"
         return found
     if isinstance(value, str):
-        exact = glued(notebook, value)
-        return [exact] if left else [as_printed(markdown, value, exact)]
+        assert value in values, f"no cell of the run glues {value!r}"
+        shown = as_printed(markdown, value, values[value])
+        if left:
+            return [values[value], *shown]            # the exact value, and as the prose shows it
+        assert shown, f"the prose does not paste {value}, the bound"
+        return shown
     return [float(value)]
 
 
@@ -573,20 +673,75 @@ def test_a_stated_bound_holds_for_the_values_it_bounds(chapter, words, left, rel
     """"|f| never exceeds 4.5e-09 m" above runs that print 4.4e-09: checked on the build's own run."""
     markdown, _ = markdown_and_code(chapter)
     sentence_with(markdown, words)                 # the sentence that states it is still there
-    notebook = executed(chapter, built_site)
-    bound, = side(right, notebook, markdown, left=False)
-    values = side(left, notebook, markdown, left=True)
-    broken = [value for value in values if not _RELATIONS[relation](value, bound)]
-    assert not broken, f"{chapter}: '{words}' states {left} {relation} {right} = {bound:g}, but {broken}"
+    values, notebook = glued_values(chapter, built_site)
+    bounds = side(right, values, notebook, markdown, left=False)
+    numbers = side(left, values, notebook, markdown, left=True)
+    broken = [(value, bound) for value in numbers for bound in bounds if not _RELATIONS[relation](value, bound)]
+    assert not broken, (f"{chapter}: '{words}' states {left} {relation} {right}, but (value, bound as printed) "
+                        f"{broken}: glue the bound with closedloop.plotting.rounded_bound (up for an upper "
+                        f"bound, down for a lower one) at the digits the prose prints")
+
+
+@pytest.mark.parametrize("chapter", sorted(path.name for path in (ROOT / "chapters").glob("*.md")))
+def test_every_stated_bound_is_checked(chapter):
+    """A number pasted after "below", "at most", "within", "(to", "agrees ... to", ... or before "or
+    more" is the right side of an entry of BOUNDS (or a listed NOT_BOUNDS, with its reason)."""
+    markdown, _ = markdown_and_code(chapter)
+    missing = unlisted_bounds(chapter, markdown)
+    assert not missing, f"{chapter}: bounds stated in prose but not in BOUNDS: {missing}"
+
+
+def test_every_exact_value_is_a_side_of_a_bound():
+    """A hidden ``...-exact`` glue exists only to check a bound: one that no entry uses checks nothing;
+    and an entry of NOT_BOUNDS names a number the prose still pastes after a bound word."""
+    used = {(chapter, key) for chapter, _, left, _, right in BOUNDS for key in (left, right) if isinstance(key, str)}
+    for path in sorted((ROOT / "chapters").glob("*.md")):
+        markdown, code = markdown_and_code(path.name)
+        for key in re.findall(r"\bglue\(\s*[\"']([^\"']+-exact)[\"']", "\n".join(code)):
+            assert (path.name, key) in used, f"{path.name} glues {key}, which no entry of BOUNDS uses"
+    for chapter, key in NOT_BOUNDS:
+        assert any(key in stated_bounds(sentence) for sentence in sentences(markdown_and_code(chapter)[0])), \
+            f"{chapter}: NOT_BOUNDS lists {key}, which no sentence pastes after a bound word any more"
 
 
 def test_the_bound_checks_see_a_broken_bound():
-    """A bound rounded to nearest below the printed value fails, the same one rounded up passes."""
-    markdown = ("Both hold it to at most {glue:text}`ch04-x:.1f` times.",)
-    assert as_printed(markdown, "ch04-x", 2.349) == 2.3
-    assert not _RELATIONS["<="](2.35, as_printed(markdown, "ch04-x", 2.349))
-    assert _RELATIONS["<="](2.35, as_printed(markdown, "ch04-x", 2.4))
-    assert as_printed(("{glue:text}`ch06-y:.0%` of it",), "ch06-y", 0.504) == 0.5
+    """A bound rounded to nearest fails where the same bound from `rounded_bound` passes, on either side:
+    "at most 2.3" of 2.349, "below 2e-10" of 2.4e-10, "more than 7 orders" of 6.6, "40 or more" of 39.7,
+    "at most 34 %" of 0.3449."""
+    from closedloop.plotting import rounded_bound
+
+    for exact, spec, relation in ((2.349, ".1f", "<="), (2.4e-10, ".0e", "<="), (6.6, "d", ">"),
+                                  (39.7, ".0f", ">="), (0.3449, ".0%", "<=")):
+        markdown = (f"It is {{glue:text}}`k:{spec}`.",)
+        upper = relation.startswith("<")
+        nearest = round(exact) if spec == "d" else exact
+        safe = int(rounded_bound(exact, ".0f", upper)) if spec == "d" else rounded_bound(exact, spec, upper)
+        test = _RELATIONS[relation]
+        assert not test(exact, *as_printed(markdown, "k", nearest)), (exact, spec, as_printed(markdown, "k", nearest))
+        assert test(exact, *as_printed(markdown, "k", safe)), (exact, spec, as_printed(markdown, "k", safe))
+    assert as_printed(("{glue:text}`k:.1f` and {glue:text}`k:.3f`",), "k", 2.3456) == [2.3, 2.346]   # every spec
+    assert as_printed(("{glue:text}`k:.0%`",), "k", 0.504) == [0.5]
+
+
+def test_the_words_that_state_a_bound_are_found():
+    assert list(stated_bounds("Both runs hold |f| below {glue:text}`a:.1f` times the tolerance.")) == ["a"]
+    assert list(stated_bounds("a step more than {glue:text}`k:.2f` times as long")) == ["k"]
+    assert list(stated_bounds("It takes {glue:text}`k:.0f` times 1/alpha or more.")) == ["k"]
+    assert list(stated_bounds("It takes {glue:text}`k:.0f` times as long.")) == []
+    assert list(stated_bounds("The ratios run from {glue:text}`a:.1f` to {glue:text}`b:.1f`.")) == []
+    assert list(stated_bounds("They agree across tolerances, to {glue:text}`a:.0e` s and {glue:text}`b:.0e` "
+                              "rad, after {glue:text}`c:d` steps.")) == ["a", "b"]
+    assert list(stated_bounds("It meets the bound (to {glue:text}`a:.0e` m for every rod).")) == ["a"]
+    assert list(stated_bounds("It keeps $T$ to {glue:text}`a:.0e` J.")) == ["a"]
+
+
+def test_an_unchecked_bound_is_found():
+    """The list check fails on a bound that no entry checks, and passes once an entry does."""
+    markdown = ("Notice: $|f|$ stays at most {glue:text}`ch99-f:.1e` m and within {glue:text}`ch99-g:.0e` "
+                "of the reference, over {glue:text}`ch99-n:d` runs that take {glue:text}`ch99-t:.1f` s.",)
+    assert [key for key, _ in unlisted_bounds("99.md", markdown, [], {})] == ["ch99-f", "ch99-g", "ch99-n"]
+    entries = [("99.md", "Notice", "ch99-f-exact", "<=", "ch99-f"), ("99.md", "Notice", "ch99-g-exact", "<=", "ch99-g")]
+    assert unlisted_bounds("99.md", markdown, entries, {("99.md", "ch99-n"): "a count"}) == []
 
 
 @pytest.mark.parametrize("chapter, key, words, allowed", CLAIMS, ids=[c[1] for c in CLAIMS])
@@ -664,96 +819,3 @@ def test_the_glue_detector_sees_a_visible_glue(tmp_path):
                     "```{code-cell} ipython3\nfrom myst_nb import glue\nglue('k', 1)\n```\n")
     with pytest.raises(AssertionError, match="calls glue"):
         test_no_cell_the_reader_sees_glues(page)
-
-
-# --- chapters 10-13: a bound stated in the prose holds for the value it bounds ----------------------
-
-#: (chapter, key pasted in the prose, "upper" or "lower", key glued with the exact value it bounds).
-#: The number the reader sees (the pasted key's value in the format the prose gives it) must lie on
-#: its side of the exact value: an upper bound ("below", "at most", "within", "to") at or above it,
-#: a lower bound ("more than", "at least") at or below it. Nearest rounding breaks this: 2.4e-10
-#: printed with ``.0e`` reads 2e-10 (``closedloop.plotting.rounded_bound`` rounds to the safe side).
-BOUNDS_IN_CHAPTERS_10_TO_13 = [
-    ("10-singularities-and-switches.md", "ch10-det-agreement", "upper", "ch10-det-agreement-exact"),
-    ("10-singularities-and-switches.md", "ch10-dead-angle-gap", "upper", "ch10-dead-angle-gap-exact"),
-    ("10-singularities-and-switches.md", "ch10-rocking-residual", "upper", "ch10-rocking-residual-exact"),
-    ("10-singularities-and-switches.md", "ch10-rocking-distance", "upper", "ch10-rocking-distance-exact"),
-    ("10-singularities-and-switches.md", "ch10-naive-overshoot", "upper", "ch10-naive-overshoot-exact"),
-    ("10-singularities-and-switches.md", "ch10-sticking-time-spread", "upper",
-     "ch10-sticking-time-spread-exact"),
-    ("10-singularities-and-switches.md", "ch10-final-phi-spread", "upper", "ch10-final-phi-spread-exact"),
-    ("10-singularities-and-switches.md", "ch10-ramp-explicit-growth", "lower",
-     "ch10-ramp-explicit-growth-exact"),
-    ("11-energy.md", "ch11-turn-cycle-gap", "upper", "ch11-turn-cycle-gap-exact"),
-    ("11-energy.md", "ch11-largest-ripple-per-turn", "upper", "ch11-largest-ripple-per-turn-exact"),
-    ("11-energy.md", "ch11-ripple-share", "upper", "ch11-ripple-share-exact"),
-    ("12-basins.md", "ch12-margin-over-error", "lower", "ch12-margin-over-error-exact"),
-    ("13-four-bar.md", "ch13-redundant-stop-gap", "upper", "ch13-redundant-stop-gap-exact"),
-    ("13-four-bar.md", "ch13-largest-pendulum-error", "upper", "ch13-largest-pendulum-error-exact"),
-    ("13-four-bar.md", "ch13-largest-energy-drift", "upper", "ch13-largest-energy-drift-exact"),
-    ("13-four-bar.md", "ch13-turning-vs-limit", "upper", "ch13-turning-vs-limit-exact"),
-]
-
-
-def glued_values(chapter, site):
-    """``{key: value}`` of every ``glue`` of a chapter, from the build's run of its current source."""
-    import ast
-
-    import jupytext
-    from jupyter_cache import get_cache
-
-    try:
-        _, notebook = get_cache(site.parent / ".jupyter_cache").merge_match_into_notebook(
-            jupytext.read(ROOT / "chapters" / chapter))
-    except KeyError:
-        pytest.fail(f"{chapter}: the build's execution cache holds no run of this page's current source")
-    values = {}
-    for cell in notebook.cells:
-        for output in cell.get("outputs", []):
-            record = output.get("metadata", {}).get("scrapbook")
-            if record:
-                text = output["data"][record["mime_prefix"] + "text/plain"]
-                values[record["name"]] = ast.literal_eval(text)
-    return values
-
-
-def printed_numbers(chapter, key, value):
-    """The number the reader reads wherever the chapter's prose pastes ``key``, read back as a float."""
-    markdown, _ = markdown_and_code(chapter)
-    specs = re.findall(r"\{glue(?::text)?\}`" + re.escape(key) + r"(?::([^`]*))?`", "\n".join(markdown))
-    assert specs, f"{chapter}: the prose does not paste {key}"
-    return [float(format(value, spec)) if spec else float(value) for spec in specs]
-
-
-def on_its_side(printed, side, exact):
-    return printed >= exact if side == "upper" else printed <= exact
-
-
-@pytest.mark.parametrize("chapter, key, side, exact_key", BOUNDS_IN_CHAPTERS_10_TO_13,
-                         ids=[b[1] for b in BOUNDS_IN_CHAPTERS_10_TO_13])
-def test_a_bound_stated_in_chapters_10_to_13_holds(chapter, key, side, exact_key, built_site):
-    values = glued_values(chapter, built_site)
-    assert key in values and exact_key in values, f"{chapter}: glue {key!r} and {exact_key!r} in a hidden cell"
-    for printed in printed_numbers(chapter, key, values[key]):
-        assert on_its_side(printed, side, values[exact_key]), \
-            f"{chapter}: the prose prints {printed!r} as an {side} bound of {values[exact_key]!r}"
-
-
-def test_every_exact_value_of_chapters_10_to_13_is_a_listed_bound():
-    """A hidden ``...-exact`` glue exists only to check a bound: one without an entry above checks nothing."""
-    listed = {(chapter, exact) for chapter, _, _, exact in BOUNDS_IN_CHAPTERS_10_TO_13}
-    for chapter in sorted({chapter for chapter, _, _, _ in BOUNDS_IN_CHAPTERS_10_TO_13}):
-        _, code = markdown_and_code(chapter)
-        for key in re.findall(r"\bglue\(\s*[\"']([^\"']+-exact)[\"']", "\n".join(code)):
-            assert (chapter, key) in listed, f"{chapter} glues {key}, not in BOUNDS_IN_CHAPTERS_10_TO_13"
-
-
-@pytest.mark.parametrize("value, spec, side, exact, holds", [
-    (2.4e-10, ".0e", "upper", 2.4e-10, False),    # nearest rounding: 2e-10, below the value
-    (3e-10, ".0e", "upper", 2.4e-10, True),       # rounded up first
-    (0.0048, ".4f", "upper", 0.00472, True),
-    (6, "d", "lower", 6.08, True),
-    (7, "d", "lower", 6.08, False),               # "more than 7 orders" of 6.08
-])
-def test_the_bound_check_sees_a_bound_printed_on_the_wrong_side(value, spec, side, exact, holds):
-    assert on_its_side(float(format(value, spec)), side, exact) is holds

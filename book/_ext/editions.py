@@ -37,12 +37,10 @@ EDITIONS = {
            "footer": '<p>Mã nguồn theo <a href="https://opensource.org/license/mit">giấy phép MIT</a>; '
                      'văn bản và hình vẽ theo <a href="https://creativecommons.org/licenses/by/4.0/">giấy phép '
                      'Creative Commons Ghi công 4.0 Quốc tế (CC BY 4.0)</a>. Xem các tệp <code>LICENSE</code> và '
-                     '<code>LICENSE-TEXT</code> của kho mã, và trang Giấy phép ở phần cuối sách.</p>',
-           # MyST-NB's buttons of a hidden code cell, written after the page is translated (translatable.py)
-           "interface": {"Show code cell source": "Hiện mã của ô", "Hide code cell source": "Ẩn mã của ô",
-                         "Show code cell outputs": "Hiện kết quả của ô", "Hide code cell outputs": "Ẩn kết quả của ô",
-                         "Show code cell content": "Hiện toàn bộ ô mã", "Hide code cell content": "Ẩn toàn bộ ô mã"}},
+                     '<code>LICENSE-TEXT</code> của kho mã, và trang Giấy phép ở phần cuối sách.</p>'},
 }
+# (The words of the site around the pages, the theme's and the code cells' buttons, are in the edition's
+# interface catalogue, locales/<language>/LC_MESSAGES/sphinx.po; see translatable.py.)
 SOURCE_LANGUAGE = "en"
 
 

@@ -30,9 +30,16 @@ plain-text ones), so the two see the same words. Everything else in an output (p
 LaTeX, numbers, code, interactive figures) stays out of the catalogues: it is computed, and
 changes whenever the computation does.
 
-**The code cells' buttons.** MyST-NB's "Show code cell source" and its kin are written after the
-page is translated; they are looked up in ``EDITIONS[language]["interface"]`` of ``editions.py``,
-which also holds the edition's title and footer.
+**The interface around the pages.** The theme's and Sphinx's words ("On this page", "Link to this
+heading", "previous page", the colour modes, the search page) are in the edition's interface
+catalogue, ``locales/<language>/LC_MESSAGES/sphinx.po``: Sphinx's own text domain, which Sphinx reads
+before its own translations and the theme's, so that its templates and writers take them from there.
+The same catalogue serves the few words that are not passed through gettext, looked up here: the
+values of ``title``, ``aria-label``, ``placeholder`` and ``data-bs-title`` that the theme and MyST-NB
+write as they are ("Toggle primary sidebar", "Toggle hidden content", the search box's "Search this
+book..."), MyST-NB's code-cell buttons ("Show code cell source" and its kin, written after the page
+is translated), and the messages of the search page's script (``_static/translations.js``, which
+Sphinx copies from its own translations).
 """
 
 from __future__ import annotations
@@ -43,15 +50,19 @@ from pathlib import Path
 
 from docutils import nodes
 from sphinx import addnodes
+from sphinx.locale import get_translation
 from sphinx.transforms import SphinxTransform
 from sphinx.transforms.post_transforms import SphinxPostTransform
 from sphinx.util.nodes import LITERAL_TYPE_NODES, is_translatable
 
 SOURCE_LANGUAGE = "en"
+#: The text domain of the interface catalogue, ``locales/<language>/LC_MESSAGES/sphinx.po``: Sphinx's own.
+INTERFACE = "sphinx"
 #: The class that makes a literal block a translatable text diagram.
 DIAGRAM = "diagram"
-#: The words of an HTML output that a reader reads: an element's text, or an attribute's value.
-_WORDS = re.compile(r"(?P<open><(?P<tag>th|caption|label)\b[^>]*>)(?P<text>[^<]*)(?P<close></(?P=tag)\s*>)"
+#: The words of an HTML output that a reader reads: an element's text, or an attribute's value. (A label
+#: that holds its input and its words, as the player's repeat modes do, has them in a ``span``.)
+_WORDS = re.compile(r"(?P<open><(?P<tag>th|caption|label|span)\b[^>]*>)(?P<text>[^<]*)(?P<close></(?P=tag)\s*>)"
                     r"""|(?P<name>\s(?:alt|title|aria-label)=)(?P<quote>["'])(?P<value>.*?)(?P=quote)""",
                     re.I | re.S)
 #: Parts of an HTML output that hold no words for the reader.
@@ -123,8 +134,9 @@ def html_messages(markup: str) -> list[str]:
 
     >>> html_messages('<table><thead><tr><th class="num">max |f| [m]</th><th>rtol = 1e-06</th></tr></thead>'
     ...               '</table><img alt="A &quot;flat&quot; line" src="x.png"><label for="r">Once</label>'
-    ...               '<button title="Play" aria-label="Play">1</button><script>var title="no";</script>')
-    ['max |f| [m]', 'rtol = {1}', 'A "flat" line', 'Once', 'Play']
+    ...               '<button title="Play" aria-label="Play">1</button><script>var title="no";</script>'
+    ...               '<label><input type="radio" value="loop"><span>Loop</span></label>')
+    ['max |f| [m]', 'rtol = {1}', 'A "flat" line', 'Once', 'Play', 'Loop']
     """
     found = []
 
@@ -235,23 +247,77 @@ class TranslateLiteralNodes(SphinxTransform):
 
 class TranslateCodePrompts(SphinxPostTransform):
     """In a translated edition: MyST-NB's "Show code cell source" and its kin, after MyST-NB's
-    ``HideInputCells`` (priority 199) has written them, from ``EDITIONS[language]["interface"]``."""
+    ``HideInputCells`` (priority 199) has written them, from the interface catalogue."""
 
     default_priority = 200
     formats = ("html",)
 
     def run(self, **kwargs) -> None:
-        from editions import EDITIONS
         from myst_nb.sphinx_ import HideCodeCellNode
 
-        language = self.config.language or SOURCE_LANGUAGE
-        words = EDITIONS.get(language, {}).get("interface")
-        if language == SOURCE_LANGUAGE or not words:
+        if (self.config.language or SOURCE_LANGUAGE) == SOURCE_LANGUAGE:
             return
+        gettext = get_translation(INTERFACE)
         for node in self.document.findall(HideCodeCellNode):
             for key in ("prompt_show", "prompt_hide"):
-                if node.get(key) in words:
-                    node[key] = words[node[key]]
+                if node.get(key):
+                    node[key] = str(gettext(node[key]))
+
+
+#: The attributes whose value the theme and MyST-NB write as it is, untranslated.
+_INTERFACE_ATTRIBUTE = re.compile(r"""(?P<name>\s(?:title|aria-label|placeholder|data-bs-title)=)(?P<quote>["'])"""
+                                  r"(?P<value>[^\"'<>]*[^\W\d_][^\"'<>]*)(?P=quote)")
+
+
+def localised_attributes(markup: str, gettext) -> str:
+    """``markup`` with each value of a ``title``, ``aria-label``, ``placeholder`` or ``data-bs-title``
+    that ``gettext`` translates replaced by its translation.
+
+    >>> words = {"Toggle hidden content": "Ẩn/hiện phần bị ẩn", "Page": "Trang"}.get
+    >>> localised_attributes('<summary aria-label="Toggle hidden content"><nav aria-label="Page" '
+    ...                      'title="Pages">', lambda text: words(text, text))
+    '<summary aria-label="Ẩn/hiện phần bị ẩn"><nav aria-label="Trang" title="Pages">'
+    """
+    def replace(match):
+        value = html.unescape(match.group("value"))
+        translated = str(gettext(value))
+        if translated == value:
+            return match.group(0)
+        return f'{match.group("name")}{match.group("quote")}{html.escape(translated)}{match.group("quote")}'
+
+    return _INTERFACE_ATTRIBUTE.sub(replace, markup)
+
+
+def translate_interface_attributes(app) -> None:
+    """In a translated edition's HTML builds: every page the templates render passes through
+    :func:`localised_attributes` with the interface catalogue."""
+    if (app.config.language or SOURCE_LANGUAGE) == SOURCE_LANGUAGE or app.builder.format != "html":
+        return
+    templates, gettext = app.builder.templates, get_translation(INTERFACE)
+    render = templates.render
+    templates.render = lambda template, context: localised_attributes(render(template, context), gettext)
+
+
+def translate_search_script(app, exception) -> None:
+    """In a translated edition's HTML builds: the messages of the search page's script that the interface
+    catalogue translates, put into the ``_static/translations.js`` that Sphinx copied from its own."""
+    if exception or (app.config.language or SOURCE_LANGUAGE) == SOURCE_LANGUAGE or app.builder.format != "html":
+        return
+    import json
+
+    path = Path(app.outdir, "_static", "translations.js")
+    if not path.exists():
+        return
+    text = path.read_text(encoding="utf-8").strip()
+    start, end = "Documentation.addTranslations(", ");"
+    if not (text.startswith(start) and text.endswith(end)):
+        return
+    data = json.loads(text[len(start):-len(end)])
+    gettext = get_translation(INTERFACE)
+    for message, translation in data["messages"].items():
+        if isinstance(translation, str) and str(gettext(message)) != message:
+            data["messages"][message] = str(gettext(message))
+    path.write_text(f"{start}{json.dumps(data, ensure_ascii=False, indent=4)}{end}\n", encoding="utf-8")
 
 
 def gettext_sees_the_html_outputs(app, config):
@@ -270,4 +336,6 @@ def setup(app):
     app.add_transform(TranslateLiteralNodes)
     app.add_post_transform(TranslateCodePrompts)
     app.connect("config-inited", gettext_sees_the_html_outputs)
+    app.connect("builder-inited", translate_interface_attributes)
+    app.connect("build-finished", translate_search_script)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -190,9 +190,17 @@ def display_equations(page_html: str) -> list[str]:
     return equations
 
 
+#: The interface catalogue of a language, ``<locale>/sphinx.po``: the site's words around the pages (the
+#: theme's, Sphinx's, MyST-NB's buttons), in Sphinx's own text domain (book/_ext/translatable.py). It is
+#: no page's catalogue, and `make translations` does not touch it.
+INTERFACE = "sphinx"
+
+
 def catalogues(locale: Path) -> dict[str, Path]:
-    """``{page: .po path}`` of one language's folder, e.g. ``locales/vi/LC_MESSAGES``."""
-    return {str(path.relative_to(locale).with_suffix("")): path for path in sorted(locale.rglob("*.po"))}
+    """``{page: .po path}`` of one language's folder, e.g. ``locales/vi/LC_MESSAGES`` (the interface
+    catalogue, which is no page's, left out)."""
+    return {str(path.relative_to(locale).with_suffix("")): path for path in sorted(locale.rglob("*.po"))
+            if path.relative_to(locale).with_suffix("").as_posix() != INTERFACE}
 
 
 def out_of_step(templates: Path, locale: Path) -> dict[str, str]:
