@@ -51,8 +51,8 @@ DEFAULT_T_END = 20.0
 #: form (26) with the compiled DOP853 reaches every case's accuracy first). Any other is an option:
 #: the default until issue 14 was --formulation baumgarte --method RK45.
 DEFAULT_METHOD = "ode.dop853"
-#: The method for a formulation that does not take DEFAULT_METHOD (Augmented, Baumgarte, NullSpace, Projected:
-#: the compiled code has no dense output for their branch guard).
+#: The method for a formulation that does not take DEFAULT_METHOD (Projected: it resets the state of a
+#: solve_ivp Runge-Kutta method after every step).
 FALLBACK_METHOD = "DOP853"
 DEFAULT_FORMULATION = "closed-form"
 #: What the summary and the figure say of a run whose warnings keep it from being classified.

@@ -70,14 +70,14 @@ class Minimal(Formulation):
     branch z(q) ends and the mechanism goes on along the other one.  Where an
     evaluation lands there or beyond it raises
     :class:`~closedloop.errors.SingularConfigurationError` (|Phi_s| |Phi_z^-1| above
-    :data:`~closedloop.linalg.CONDITION_LIMIT`, or Newton finds no z), as it does
-    when Newton's solution jumps to another assembly branch (det Phi_z changes
-    sign).  But when every evaluation stays short of it, q turns back on the
-    same branch, a motion of the q equation and not of the mechanism, and no
-    error is raised: on a rocking crank (l1 = 2, l2 = 1.5, no forces, 5 s)
-    RK45 at rtol 1e-6 and LSODA at 1e-4 to 1e-8 did so, with T + Pi off by
-    0.2 to 17 J of 274 J, while DOP853 raised.  Where q can reach a dead
-    position use :class:`NullSpace`, which passes it.
+    :data:`~closedloop.linalg.CONDITION_LIMIT`, R^T M R singular, or Newton finds
+    no z), as it does when Newton's solution jumps to another assembly branch
+    (det Phi_z changes sign).  Where every evaluation stays short of it, the
+    equation in q turns back on the same branch, a smooth motion of that
+    equation and not of the mechanism; the run's watch locates that turning
+    point on the step's interpolant, finds that the branch ends just beyond
+    it, and stops there with the same error (:mod:`closedloop.simulation.watch`).
+    Where q can reach a dead position use :class:`NullSpace`, which passes it.
     """
 
     name = "minimal"
@@ -109,7 +109,14 @@ class Minimal(Formulation):
         M, p1, _, Phi, gamma = system.dynamics(t, s, sd, mode)
         if R is None:
             R = orthogonal_complement(Phi, system.q_index, system.z_index, t)
-        qdd, c = minimal_accelerations(M, p1, Phi, gamma, R, system.z_index)
+        try:
+            qdd, c = minimal_accelerations(M, p1, Phi, gamma, R, system.z_index)
+        except np.linalg.LinAlgError:          # R^T M R singular to working precision: R is huge along one q
+            raise SingularConfigurationError(
+                f"the reduced mass R^T M R of the minimal coordinates is singular{at_time(t)} (|Phi_s| |Phi_z^-1| = "
+                f"{partition_condition(Phi, system.z_index):.3g} at {np.array2string(s, precision=6)}): q is at a "
+                "dead position of this partition, which q alone can not pass; use the NullSpace formulation"
+            ) from None
         return qdd, R, c
 
     def accelerations(self, system, t, s, sd, mode=None):
@@ -155,6 +162,19 @@ class MinimalUnpacker:
         """``(s, s')`` as n x K arrays for K states (columns), in order along the path (warm-started)."""
         pairs = [self(states[:, k], times[k]) for k in range(states.shape[1])]
         return np.array([p[0] for p in pairs]).T, np.array([p[1] for p in pairs]).T
+
+    def follow(self, q, t=None):
+        """The coordinates s at the independent coordinates ``q`` on this unpacker's branch, followed from its last
+        solution (by continuation where one Newton solve does not stay on the branch).
+
+        Raises
+        ------
+        SingularConfigurationError
+            Where the branch can not be followed to ``q``: it ends before (a dead
+            position of q lies between), or Newton's z lands on another branch.
+        """
+        f = self.system.f
+        return self.with_R(np.concatenate((np.asarray(q, dtype=float), np.zeros(f))), t)[0]
 
     def with_R(self, y, t=None):
         """``(s, R)`` at ``y``: the coordinates and R of (20) there (for the right-hand side)."""

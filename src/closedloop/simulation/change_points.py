@@ -6,9 +6,10 @@ not determined, R of (20) and every null-space basis fail, and the motion past i
 Lagrange's equations with multipliers.  An integrator that steps over it lands on either branch, or
 between them, and reports a smooth-looking motion with a small |f|: a silent wrong answer.
 
-The check runs on every runner (solve_ivp and the compiled DOP853) and every formulation,
-minimal coordinates included, over the accepted steps of each segment (and, when a formulation
-fails inside a step, over that step extrapolated to where it failed):
+The check runs on every runner (solve_ivp, the compiled DOP853, naive switching) and every
+formulation, minimal coordinates included, over the accepted steps in batches as the run goes
+(:class:`closedloop.simulation.watch.PathWatch`), and, when a formulation fails inside a step,
+over that step extrapolated to where it failed:
 
 1. ``sigma_min(Phi_s)`` at every step end (the eigenvalues of the small Gram matrix
    ``Phi_s Phi_s^T``, for all step ends at once);
@@ -39,7 +40,7 @@ from ..errors import SingularConfigurationError
 from ..loading import first_use
 
 
-__all__ = ["PathWatch", "singular_values", "find_change_point", "change_point_error", "CHANGE_POINT_LIMIT", "REFINE_BELOW"]
+__all__ = ["singular_values", "find_change_point", "change_point_error", "CHANGE_POINT_LIMIT", "REFINE_BELOW"]
 
 #: Unit roundoff of float64: the smallest distance to the manifold a run can claim.
 EPSILON = float(np.finfo(float).eps)
@@ -115,7 +116,7 @@ def _refine(system, times, s, sd, k, beyond=None):
 
     last = times.size - 1
     pieces = [(a, times[a], times[a + 1]) for a in (k - 1, k) if 0 <= a < last and times[a + 1] > times[a]]
-    if beyond is not None and k == last and last >= 1 and beyond > times[last]:
+    if beyond is not None and k == last and last >= 1 and beyond > times[last] > times[last - 1]:
         pieces.append((last - 1, times[last], beyond))
     best = None
     for a, start, end in pieces:
@@ -180,7 +181,9 @@ def find_change_point(system, times, s, sd, failed_at=None, limit=None, evaluate
     for k in minima:
         t, low, high, position = float(times[k]), float(smallest[k]), float(largest[k]), s[:, k]
         if low < REFINE_BELOW * high or (failed_at is not None and k == times.size - 1):
-            t, low, high, position = _refine(system, times, s, sd, k, failed_at)
+            refined = _refine(system, times, s, sd, k, failed_at)
+            if refined is not None:               # None: no step of positive length beside step end k
+                t, low, high, position = refined
         if low >= REFINE_BELOW * high:
             continue     # Phi_s well conditioned: a large |f| here is drift, not a change point
         # |f| on the interpolant measures how far the interpolated path is from the manifold, so
@@ -203,81 +206,3 @@ def change_point_error(found, names, method_name):
         "meet, and the motion past it is not determined by these equations; no formulation of this library "
         "passes a change point: end the run before it, or change the geometry"
     )
-
-
-class PathWatch:
-    """The step ends of a run, as its runners record them, checked for change points.
-
-    Active unless the run's ``branch_limit`` is infinite.  A runner calls
-    :meth:`start` at each segment's start and :meth:`record` after each accepted
-    step, then :meth:`check_recorded` at the segment's end (or passes a segment's
-    step ends to :meth:`check` at once).  The segments' positions and velocities
-    are kept and checked together by :meth:`flush` (one batched evaluation per
-    run instead of one per segment): when a segment failed (``failed_at``),
-    when many step ends are pending, and by :func:`~closedloop.simulate` at the
-    end of the run or when it fails, so that a change point passed before any
-    failure is named as its cause.
-    """
-
-    #: Step ends kept before they are checked.
-    PENDING = 20_000
-
-    def __init__(self, system, formulation, options):
-        self.system, self.formulation, self.options = system, formulation, options
-        self.active = math.isfinite(options.branch_limit)
-        self.times, self.states, self.seed = [], [], None
-        self.pending = []                          # (times, s, sd) of segments not yet checked
-        self.largest_residuals = (0.0, 0.0)        # max |f|, max |f'| over every step end checked
-
-    def start(self, t0, y0, s0):
-        """Begin a segment at ``(t0, y0)`` whose coordinates are ``s0`` (the seed of the unpacker)."""
-        if self.active:
-            self.times, self.states, self.seed = [t0], [np.array(y0, dtype=float)], s0
-
-    def record(self, t, y):
-        """One accepted step end."""
-        self.times.append(t)
-        self.states.append(y.copy())
-
-    def check(self, times, states, t_stop=None, y_stop=None, failed_at=None):
-        """Keep a segment's step ends ``times`` (K,), ``states`` (m, K); check them if it failed.
-
-        Step ends past ``t_stop`` (the step that overshot a switch) are left out and
-        ``(t_stop, y_stop)`` closes the path.
-        """
-        if not self.active or len(times) < 2:
-            return
-        times, states = np.asarray(times, dtype=float), np.asarray(states, dtype=float)
-        if t_stop is not None:
-            keep = times < t_stop
-            times = np.append(times[keep], t_stop)
-            states = np.column_stack((states[:, keep], y_stop))
-        if self.options.work:
-            states = states[:-1]
-        unpack = self.formulation.unpacker(self.system)
-        unpack.seed(self.seed)
-        self.pending.append((times, *unpack.many(states, times)))
-        if failed_at is not None or sum(piece[0].size for piece in self.pending) > self.PENDING:
-            self.flush(failed_at)
-
-    def check_recorded(self, t_stop=None, y_stop=None, failed_at=None):
-        """:meth:`check` over the step ends recorded since :meth:`start`."""
-        if self.active and len(self.times) > 1:
-            self.check(self.times, np.column_stack(self.states), t_stop, y_stop, failed_at)
-
-    def flush(self, failed_at=None):
-        """Check the kept step ends: raise at the first change point along them."""
-        if not self.pending:
-            return
-        times = np.concatenate([piece[0] for piece in self.pending])
-        s = np.concatenate([piece[1] for piece in self.pending], axis=1)
-        sd = np.concatenate([piece[2] for piece in self.pending], axis=1)
-        self.pending = []
-        residuals, jacobians = self.system.constraints_and_jacobian_many(s)
-        velocity = np.einsum("ijk,jk->ik", jacobians, sd)
-        self.largest_residuals = (max(self.largest_residuals[0], float(np.sqrt(np.max(np.sum(residuals ** 2, 0))))),
-                                  max(self.largest_residuals[1], float(np.sqrt(np.max(np.sum(velocity ** 2, 0))))))
-        found = find_change_point(self.system, times, s, sd, failed_at, evaluated=(residuals, jacobians))
-        if found is not None:
-            raise change_point_error(found, list(self.system.coordinate_names),
-                                     self.options.method_name)

@@ -143,7 +143,7 @@ def methods_taking(formulation, switching="events"):
             formulation.check_method(name)
         except InputError:
             continue
-        if name != dop853.METHOD or (switching != "naive" and formulation.guards_partition):
+        if name != dop853.METHOD or switching != "naive":
             names.append(name)
     return tuple(names)
 
@@ -168,16 +168,9 @@ def _check_method(formulation, method, switching, options):
     formulation.check_method(method)
     if switching not in SWITCHING:
         raise InputError(f"switching: unknown {switching!r}; choose one of {', '.join(SWITCHING)}")
-    if method == dop853.METHOD:
-        if switching == "naive":
-            raise InputError(f"method: switching='naive' runs on solve_ivp; choose one of "
-                             f"{', '.join(SOLVER_METHODS[:-1])}")
-        if not formulation.guards_partition:
-            raise InputError(
-                f"method: {method} has no dense output for the branch guard, so it takes only formulations "
-                "that cannot cross det Phi_z = 0 unnoticed (ClosedForm, Orthogonal, Minimal); use a "
-                f"solve_ivp method with {type(formulation).__name__}"
-            )
+    if method == dop853.METHOD and switching == "naive":
+        raise InputError(f"method: switching='naive' runs on solve_ivp; choose one of "
+                         f"{', '.join(SOLVER_METHODS[:-1])}")
     reserved = set(_RESERVED) & set(options)
     if reserved:
         raise InputError(f"solver options: {sorted(reserved)} are managed by simulate()")

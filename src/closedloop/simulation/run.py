@@ -15,8 +15,8 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import IntegrationError, SingularConfigurationError
-from . import change_points
 from . import switching as rule
+from . import watch
 from .options import IMPLICIT_METHODS
 from .result import Outputs, SwitchEvent
 
@@ -60,11 +60,12 @@ class Run:
         self.steps_exhausted = False
         self.work_done = 0.0
         self.partition_singularities = []
+        self.overflows = []               # (t, message) of the right-hand side's overflows in the current segment
         self.stopped_at = None
         self.switch_events, self.sticking_intervals = [], []
         self._fast_accelerations = {}     # the formulation's switch_accelerations per branch
-        # The step ends of the current segment, checked for change points.
-        self.path = change_points.PathWatch(system, formulation, options)
+        # Every accepted step end, checked as the run goes (change points, branch guard, dead positions).
+        self.path = watch.PathWatch(system, formulation, options, self)
 
     # -- what every runner shares -------------------------------------------------
     def record_step(self, start, end):
