@@ -210,10 +210,19 @@ class MinimalUnpacker:
         return s, R
 
     def _solve(self, q, s_from, R_from, t):
-        """One Newton solve from the first-order prediction; ``(s, Phi, sign of det Phi_z)``."""
+        """One Newton solve from the first-order prediction; ``(s, Phi, sign of det Phi_z)``.
+
+        A solution that Newton found far from the prediction (more than :data:`CONTINUATION_STEP`
+        times 1 + |z|) counts as another branch (sign 0): from a prediction that far off, Newton can
+        land on a solution of f(q, z) = 0 with the same sign of det Phi_z but another turn of an
+        angle (psi + 16 pi, seen when the extra stages of a dense output were evaluated at the
+        segment's end, from a warm start 2 rad of q away), and continuation then follows the branch.
+        """
         qi, zi = self.system.q_index, self.system.z_index
         guess = s_from[zi] if R_from is None else s_from[zi] + R_from[zi] @ (q - s_from[qi])
         s, Phi = solve_dependent(self.system, q, guess, t, return_jacobian=True)
+        if np.max(np.abs(s[zi] - guess)) > CONTINUATION_STEP * (1.0 + np.max(np.abs(guess))):
+            return s, Phi, 0.0
         return s, Phi, np.sign(np.linalg.det(Phi[:, zi]))
 
     def _solve_on_branch(self, q, t):

@@ -52,6 +52,7 @@ from .. import hermite
 from ..errors import IntegrationError
 from ..methods import COMPILED_METHOD
 from . import dop853_code
+from .switching import CHOSEN_SIDE
 
 __all__ = ["METHOD", "ALLOWED_OPTIONS", "REJECTION_FACTOR", "STEP_CONTROL_BETA", "integrate_segment", "Segment", "step_stages",
            "continuous_extension", "continuous_extensions", "interpolate"]
@@ -323,7 +324,11 @@ class _StepWatch:
                  t_end=math.inf, on_step=None):
         self.switching, self.directions, self.failure = switching, directions, failure
         self.max_steps, self.t_end, self.on_step = max_steps, t_end, on_step
-        self.last_t, self.last_y, self.last_g = t0, y0.copy(), list(switching(t0, y0))
+        # an exact zero at the start counts as on the side the segment runs on (switching.on_chosen_side): a
+        # crossing in the first step is then located there, not at t0
+        self.last_t, self.last_y = t0, y0.copy()
+        self.last_g = [value if value != 0.0 else (CHOSEN_SIDE if direction < 0 else -CHOSEN_SIDE)
+                       for value, direction in zip(switching(t0, y0), directions)]
         self.last_step, self.hit, self.dense = first_step, None, dense
         self.steps, self.ends, self.end_times = [], [self.last_y], [t0]
 

@@ -184,14 +184,17 @@ class Run:
         return tuple(rule.switching_rate(h, t, s, sd, self._accelerations(t, s, sd, branch), now, s_ahead=ahead)
                      for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
 
-    def decide(self, t, s, sd, mode, i):
+    def decide(self, t, s, sd, mode, i, stalled=False):
         """The branch of switch i at a state on its surface: (new mode, action).
 
-        Where the rates vanish on both branches (a degenerate contact) the branches'
+        Where the rates vanish on both branches (a degenerate contact), or where the
+        segment that the rates chose stopped at once (``stalled``: the motion they
+        point to stays within the integration's round-off of the surface and comes
+        back to it, as a slider at rest a hair past a dead centre does), the branches'
         own motions over :data:`~closedloop.simulation.switching.PROBE_TIME` decide.
         """
         off, on = self.side_rates(t, s, sd, mode, i)
-        if rule.uninformative(off, on, _scale(s, sd)):
+        if stalled or rule.uninformative(off, on, _scale(s, sd)):
             off, on = (rule.probe(self.force.switching_functions, lambda time, q, qd, b=branch: self._accelerations(
                 time, q, qd, b), t, s, sd)[i] / rule.PROBE_TIME
                 for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
@@ -239,7 +242,7 @@ class Run:
             if end.event == len(self.names):                 # stop_when fired
                 self.stopped_at = t
                 return
-            mode, action = self.decide(t, s, sd, mode, end.event)
+            mode, action = self.decide(t, s, sd, mode, end.event, stalled=stalls > 0)
             self.switch_events.append(SwitchEvent(t, self.names[end.event], action))
             if action == "stuck":
                 stuck = end.event

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import ClosedLoopError, IntegrationError
 from ..methods import scipy_integrate, solver_class, solver_classes
+from . import switching as rule
 
 __all__ = ["segment", "counting_solver", "SOLVER_CLASSES", "STANDING_STEPS"]
 
@@ -80,14 +81,20 @@ def counting_solver(run, method):
     return Counted
 
 
-def _events(run, unpack, mode):
-    """Terminal events at every switch (and stop_when)."""
+def _events(run, unpack, mode, t0):
+    """Terminal events at every switch (and stop_when), for a segment that starts at ``t0`` on branch ``mode``.
+
+    At ``t0`` an exact zero of a switching function counts as on the branch chosen
+    (:func:`~closedloop.simulation.switching.on_chosen_side`), so that a crossing later in the
+    first step is located there and not at the start.
+    """
     switching_functions = run.force.switching_functions if run.names else None
     events = []
     for i in range(len(run.names)):
         def event(t, y, i=i):
             s, sd = unpack(y, t)
-            return switching_functions(t, s, sd)[i]
+            value = switching_functions(t, s, sd)[i]
+            return rule.on_chosen_side(value, mode[i]) if t == t0 else value
 
         event.terminal, event.direction = True, (-1.0 if mode[i] else 1.0)
         events.append(event)
@@ -131,7 +138,7 @@ def _guarded(rhs, run, reached, overflow):
 def segment(run, t0, s0, sd0, mode):
     """Integrate on branch ``mode`` from ``t0`` until t_end or the next switch: a SegmentEnd."""
     y0, unpack, rhs = run.start_segment(s0, sd0, mode)
-    events, terminal = _events(run, unpack, mode)
+    events, terminal = _events(run, unpack, mode, t0)
     reached = [t0]                                  # last time the rhs was evaluated
     overflow = run.overflows = []                   # (t, message) of the overflows (the watch reads them too)
     run.path.start(t0, y0, s0, mode)
