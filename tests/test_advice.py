@@ -186,16 +186,17 @@ def fast_reference(slider_crank):
     return simulate(slider_crank, state, 0.1, formulation=Minimal(), t_eval=[0.1], **TIGHT).coordinate("phi")[-1]
 
 
-@pytest.mark.parametrize("options", [dict(rtol=1e-6, atol=1e-6), dict(max_step=1e-3)], ids=["tighter", "max_step"])
-def test_switch_not_located(slider_crank, fast_reference, options):
+@pytest.mark.parametrize("options", [dict(), dict(rtol=1e-6, atol=1e-6), dict(max_step=1e-3)],
+                         ids=["as it was", "tighter", "max_step"])
+def test_switch_located_where_it_was_not(slider_crank, fast_reference, options):
+    """Minimal at 300 rad/s and rtol 1e-3 said it "could not locate a switch ... try tighter tolerances or a
+    max_step": the switching function had two values at one state, its z solved on another turn of psi at the
+    step's end (Newton from a prediction 2 rad of q away). z is now followed by continuation there, so the run
+    answers, to the accuracy of its tolerance; the old advice gives the reference to 1e-3."""
     state = initial_state(slider_crank, *FAST)
     settings = dict(formulation=Minimal(), method="RK45", rtol=1e-3, atol=1e-3)
-    with pytest.raises(IntegrationError) as error:
-        simulate(slider_crank, state, 0.1, **settings)
-    assert "could not locate a switch" in str(error.value)
-    assert str(error.value).endswith("; try tighter tolerances or a max_step")
     result = passes(simulate(slider_crank, state, 0.1, **{**settings, **options}), 0.1)
-    assert result.coordinate("phi")[-1] == pytest.approx(fast_reference, abs=1e-3)
+    assert result.coordinate("phi")[-1] == pytest.approx(fast_reference, abs=0.3 if not options else 1e-3)
 
 
 def _regularised_gas_system(base, eps=1e-3):
@@ -209,35 +210,44 @@ def _regularised_gas_system(base, eps=1e-3):
     return SliderCrankSystem(base.parameters, base.reading, values, force)
 
 
-@pytest.mark.parametrize("follow", ["tighten rtol and atol", "regularise the force"])
-def test_chattering_on_a_switch(slider_crank, follow):
-    """Projected at rtol 1e-2 and 300 rad/s stalls on x_C = 5; looser tolerances stall as well."""
+def test_a_stall_on_a_switch_is_decided_by_the_branches_own_motions(slider_crank):
+    """Projected at rtol 1e-2 and 300 rad/s stalled 51 times at t = 0.0325 s on x_C = 5 and said "chatters ...;
+    tighten rtol and atol, or regularise the force". The segment after each decision stopped at once: its event,
+    exactly zero at the segment's start, was located there. It counts as on the branch chosen now (and a stall
+    would be decided by the branches' own motions): the run goes on without a stop that makes no progress, and
+    its error is that of its tolerance (rtol 3e-2 and 1e-3 are off by 1.2 and 0.26 rad at 0.25 s too)."""
     settings = dict(formulation=Projected(), method="DOP853", rtol=1e-2, atol=1e-2)
     state = initial_state(slider_crank, *FAST)
     decisions = []
     original = Run.decide
 
-    def counted(self, t, *args):
-        decisions.append(t)
-        return original(self, t, *args)
+    def counted(self, t, *args, **kwargs):
+        decisions.append((t, kwargs.get("stalled", False)))
+        return original(self, t, *args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(Run, "decide", counted)
+        result = passes(simulate(slider_crank, state, 0.25, **settings), 0.25)
+    times = [t for t, _ in decisions]
+    assert len(times) > 20 and np.all(np.diff(times) > 1e-9)            # every stop at a switch makes progress
+    reference = simulate(slider_crank, state, 0.25, formulation=Minimal(), t_eval=[0.25], **TIGHT)
+    assert abs(result.coordinate("phi")[-1] - reference.coordinate("phi")[-1]) < 1.5
+
+
+def test_chattering_on_a_switch_names_the_time_and_the_switch(slider_crank, case2):
+    """Where every decision, the probe's too, is followed by a stop without progress, the run stops after
+    MAX_STALLS of them (here the segment is made to stall)."""
+    from closedloop.simulation import solve_ivp_runner
+    from closedloop.simulation.run import SegmentEnd
+
+    def stall(run, t0, s0, sd0, mode):
+        return SegmentEnd(t0, s0, sd0, 1)
 
     with pytest.MonkeyPatch.context() as patch, pytest.raises(IntegrationError) as error:
-        patch.setattr(Run, "decide", counted)
-        simulate(slider_crank, state, 0.25, **settings)
-    assert "chatters on switch 'x_C = 5'" in str(error.value)
-    assert f"more than {MAX_STALLS} stops in a row" in str(error.value)
-    # the decisions at the time it chatters: its first arrival there, then one after each of MAX_STALLS
-    # stops without progress; the next stop raised
-    stalled = [t for t in decisions if abs(t - decisions[-1]) <= 1e-9]
-    assert len(stalled) == MAX_STALLS + 1
-    assert str(error.value).endswith("; tighten rtol and atol, or regularise the force")
-    if follow == "tighten rtol and atol":
-        result = passes(simulate(slider_crank, state, 0.25, **{**settings, "rtol": 1e-6, "atol": 1e-6}), 0.25)
-        reference = simulate(slider_crank, state, 0.25, formulation=Minimal(), t_eval=[0.25], **TIGHT)
-        assert result.coordinate("phi")[-1] == pytest.approx(reference.coordinate("phi")[-1], abs=1e-3)
-    else:
-        smooth = _regularised_gas_system(slider_crank)
-        passes(simulate(smooth, initial_state(smooth, *FAST), 0.25, **settings), 0.25)
+        patch.setattr(solve_ivp_runner, "segment", stall)
+        simulate(slider_crank, case2, 0.5)
+    assert str(error.value) == (f"the state chatters on switch 'x_C = 5' at t = 0 s: more than {MAX_STALLS} stops in "
+                                "a row without progress; tighten rtol and atol, or regularise the force")
 
 
 def test_projection_at_a_tolerance_too_loose():
@@ -326,8 +336,7 @@ def test_branch_guard(rocking, rocking_dead_position):
     assert "Kantorovich number" in str(error.value)
     condition = float(re.search(r"cond\(Phi_s\) = ([0-9.e+]+)", str(error.value)).group(1))
     assert condition < 10 and "loses rank" not in str(error.value)      # drift at a well-conditioned Phi_s
-    assert str(error.value).endswith("; tighten rtol and atol (at a bifurcation itself no formulation can choose "
-                                     "the branch)")
+    assert str(error.value).endswith("so the run may have changed branch; tighten rtol and atol")
     result = passes(simulate(rocking, state, 4.0, formulation=Augmented(), method="RK45", rtol=1e-9, atol=1e-9),
                     4.0)
     assert result.partition_singularities[0] == pytest.approx(rocking_dead_position, abs=1e-6)
@@ -399,47 +408,45 @@ def test_minimal_newton_fails_at_a_dead_position(rocking, rocking_dead_position)
     assert result.partition_singularities[0] == pytest.approx(rocking_dead_position, abs=1e-4)
 
 
-BRANCH_ADVICE = ("q alone can not pass it: use the NullSpace formulation (near a bifurcation, also tighten rtol "
-                 "and atol)")
-
-
 def test_minimal_leaves_its_branch_at_a_dead_position(rocking, rocking_dead_position):
     state = initial_state(rocking, math.pi, 1.0)
     with pytest.raises(SingularConfigurationError) as error:
         simulate(rocking, state, 1.5, formulation=Minimal(), **TIGHT)
-    assert str(error.value).endswith(BRANCH_ADVICE)
+    assert str(error.value).endswith("so the path met a dead position of q (Phi_z nearly singular), which q alone "
+                                     "can not pass: use the NullSpace formulation")
     result = passes(simulate(rocking, state, 1.5, formulation=NullSpace(), **TIGHT), 1.5)
     assert result.partition_singularities[0] == pytest.approx(rocking_dead_position, abs=1e-8)
 
 
-def test_minimal_leaves_its_branch_near_a_bifurcation():
-    """l2/l1 = 1 + 1e-8: the two branches are 3e-4 rad apart at phi = 3 pi / 2."""
+@pytest.mark.parametrize("follow", [dict(max_step=1e-4), dict(rtol=1e-9, atol=1e-9)], ids=["max_step", "tighter"])
+def test_minimal_near_a_bifurcation(follow):
+    """l2/l1 = 1 + 1e-8: the two branches are 3e-4 rad apart at phi = 3 pi / 2. At rtol 1e-3 a trial stage of q
+    2.55 rad away landed on the other branch ("a dead position of q, or ...": there is none); a short enough
+    max_step keeps z on its branch, and so does a tight tolerance now (z is followed in up to 4096 pieces)."""
     system = slider_crank_system(SliderCrankParameters(l2=2.0 * (1 + 1e-8), a2=1.0), torque=False, gas=False)
     state = initial_state(system, math.pi, 3.0)
     loose = dict(method="DOP853", rtol=1e-3, atol=1e-3)
     with pytest.raises(SingularConfigurationError) as error:
         simulate(system, state, 1.0, formulation=Minimal(), **loose)
-    assert str(error.value).endswith(BRANCH_ADVICE)
-    with pytest.raises(SingularConfigurationError):     # NullSpace alone is not enough here: hence "also"
-        simulate(system, state, 1.0, formulation=NullSpace(), **loose)
-    result = passes(simulate(system, state, 1.0, formulation=NullSpace(), method="DOP853", rtol=1e-9, atol=1e-9),
-                    1.0)
+    assert str(error.value).endswith("landed on another branch; give a max_step, or use a formulation that does "
+                                     "not solve for z (Orthogonal, NullSpace)")
+    assert "dead position" not in str(error.value)
+    result = passes(simulate(system, state, 1.0, formulation=Minimal(), **{**loose, **follow}), 1.0)
     assert np.max(np.cos(result.coordinate("psi"))) < 0          # it stayed on the paper's branch
+    energy = system.energy(result.s, result.sd)                  # no force: T + Pi kept, to the tolerance asked
+    assert np.ptp(energy) < (1e-2 if "max_step" in follow else 1e-8) * np.max(np.abs(energy))
 
 
-@pytest.mark.parametrize("formulation, options", [(Minimal(), dict(max_step=1e-3)), (Orthogonal(), {}),
-                                                  (NullSpace(), {})], ids=["max_step", "Orthogonal", "NullSpace"])
-def test_minimal_too_fast_for_the_step(slider_crank, formulation, options):
-    """phi0' = 200 rad/s with the gas force: a trial stage carries q too far for Newton's continuation."""
+def test_minimal_follows_a_fast_crank(slider_crank):
+    """phi0' = 200 rad/s with the gas force: a trial stage carried q too far for Newton's continuation in 64
+    pieces, and the run stopped ("too fast for the step; give a max_step ..."). z is now followed in up to 4096
+    pieces: the run answers, within 100 times its tolerance of a tight run of another formulation."""
     state = initial_state(slider_crank, math.pi, 200.0)
-    settings = dict(method="DOP853", rtol=1e-5, atol=1e-5)
-    with pytest.raises(SingularConfigurationError) as error:
-        simulate(slider_crank, state, 0.1, formulation=Minimal(), **settings)
-    assert str(error.value).endswith("so the motion is too fast for the step; give a max_step, or use a "
-                                     "formulation that does not solve for z (Orthogonal, NullSpace)")
-    result = passes(simulate(slider_crank, state, 0.1, formulation=formulation, **settings, **options), 0.1)
+    result = passes(simulate(slider_crank, state, 0.1, formulation=Minimal(), method="DOP853", rtol=1e-5,
+                             atol=1e-5), 0.1)
     reference = simulate(slider_crank, state, 0.1, formulation=Baumgarte(), t_eval=[0.1], **TIGHT)
-    assert result.coordinate("phi")[-1] == pytest.approx(reference.coordinate("phi")[-1], abs=1e-3)
+    phi = reference.coordinate("phi")[-1]
+    assert result.coordinate("phi")[-1] == pytest.approx(phi, abs=100 * (1e-5 + 1e-5 * abs(phi)))
 
 
 @pytest.mark.parametrize("refused", [Orthogonal(), Minimal()], ids=["orthogonal", "minimal"])

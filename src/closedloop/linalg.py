@@ -17,7 +17,7 @@ from .validation import one_of
 
 __all__ = ["solve_augmented", "solve_small", "solve_dense", "solve_many", "condition_number", "orthogonal_complement",
            "orthogonal_complement_many", "partition_condition", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
-           "NULL_SPACE_BASES"]
+           "NULL_SPACE_BASES", "NEAR_RANK_LOSS", "NEARLY_SINGULAR"]
 
 
 def solve_augmented(M, Phi, p1, p2, t=None):
@@ -103,6 +103,13 @@ def solve_small(A, b):
         return np.array([e * b[0] - c * b[1], a * b[1] - d * b[0]]) / det
     return solve_dense(A, b)
 
+
+#: cond(Phi_s) above which a message says that Phi_s nearly loses rank, two assembly branches coming close (below
+#: it, a large Kantorovich number comes from a large |f|: a drift, at a well-conditioned configuration).
+NEAR_RANK_LOSS = 100.0
+#: cond(Phi_s), or |Phi_s| |Phi_z^-1| of a partition, above which a message about a run that could not go on names
+#: that matrix as nearly singular there.
+NEARLY_SINGULAR = 1e3
 
 #: |Phi_s| |Phi_z^-1| (:func:`partition_condition`) above which R of (20) is refused: a state is then
 #: within 1e-10 of a dead position, relative to the constraints' own scale, and what R gives there keeps

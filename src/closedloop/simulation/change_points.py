@@ -40,7 +40,8 @@ from ..errors import SingularConfigurationError
 from ..loading import first_use
 
 
-__all__ = ["singular_values", "find_change_point", "change_point_error", "CHANGE_POINT_LIMIT", "REFINE_BELOW"]
+__all__ = ["singular_values", "find_change_point", "change_point_error", "branch_error", "meeting_point",
+           "CHANGE_POINT_LIMIT", "REFINE_BELOW", "MEETING_TOLERANCE"]
 
 #: Unit roundoff of float64: the smallest distance to the manifold a run can claim.
 EPSILON = float(np.finfo(float).eps)
@@ -142,7 +143,8 @@ def _refine(system, times, s, sd, k, beyond=None):
     return best
 
 
-def find_change_point(system, times, s, sd, failed_at=None, limit=None, evaluated=None):
+def find_change_point(system, times, s, sd, failed_at=None, limit=None, evaluated=None, open_start=False,
+                      open_end=False, accept=None):
     """The first change point along a path given at its step ends, or None.
 
     Parameters
@@ -159,10 +161,19 @@ def find_change_point(system, times, s, sd, failed_at=None, limit=None, evaluate
     failed_at : float, optional
         Where the run failed after its last step end (the formulation could not
         go on): the path is then also followed, extrapolated, up to that time.
+    open_start, open_end : bool, optional
+        The path goes on before its first (after its last) step end, which is then
+        not taken for a minimum on the strength of one neighbour: a batch of a run's
+        step ends, checked as the run goes, whose ends the next batch holds too.
+    accept : callable, optional
+        ``accept(found) -> bool``: a point found is returned only if this is true,
+        else the search goes on along the path.
 
     Returns
     -------
-    None, or ``(t, s, sigma_min, sigma_max, kantorovich)`` at the change point.
+    None, or ``(t, s, sigma_min, sigma_max, kantorovich, distance)`` where the path can not tell two
+    branches apart: a change point, or a place where two branches pass near each other and the path's
+    distance to the constraints reached half their gap (:func:`branch_error` tells which).
     """
     limit = CHANGE_POINT_LIMIT if limit is None else limit
     if times.size < 2:
@@ -171,8 +182,8 @@ def find_change_point(system, times, s, sd, failed_at=None, limit=None, evaluate
     smallest, largest = singular_values(jacobians)
     error = np.maximum(np.sqrt(np.sum(residuals * residuals, axis=0)),
                        EPSILON * (1.0 + np.max(np.abs(s), axis=0)))
-    lower_left = np.concatenate(([True], smallest[1:] <= smallest[:-1]))
-    lower_right = np.concatenate((smallest[:-1] <= smallest[1:], [True]))
+    lower_left = np.concatenate(([not open_start], smallest[1:] <= smallest[:-1]))
+    lower_right = np.concatenate((smallest[:-1] <= smallest[1:], [not open_end]))
     # a minimum where Phi_s is well conditioned is passed over below, unrefined: only the others are looked at
     low_enough = smallest < REFINE_BELOW * largest
     if failed_at is not None:
@@ -190,19 +201,114 @@ def find_change_point(system, times, s, sd, failed_at=None, limit=None, evaluate
         # a refined minimum that only reflects the interpolation's own error is not trusted
         distance = max(float(error[k]), float(np.linalg.norm(system.constraints(position))))
         kantorovich = math.inf if low == 0.0 else high * distance / (low * low)
-        if kantorovich > limit:
-            return t, position, low, high, kantorovich
+        if kantorovich > limit and (accept is None or accept((t, position, low, high, kantorovich, distance))):
+            return t, position, low, high, kantorovich, distance
     return None
 
 
-def change_point_error(found, names, method_name):
-    """The SingularConfigurationError for a change point found by :func:`find_change_point`."""
-    t, position, low, high, kantorovich = found
+#: A point where f(s) = 0 and Phi_s loses rank to within this much (relative to 1 + |s|, and to sigma_max(Phi_s)):
+#: the branches meet there.  Where they only come near (a length off by a relative 1e-8 from a parallelogram's,
+#: say), the least-squares residual stays at the size of that defect.
+MEETING_TOLERANCE = 1e-12
+
+
+@first_use
+def _least_squares():
+    """scipy.optimize's least_squares, imported on first use."""
+    from scipy.optimize import least_squares
+
+    return least_squares
+
+
+def meeting_point(system, s):
+    """Whether two assembly branches meet near ``s``: ``(point, gap)``.
+
+    ``point`` is a point of f = 0 at which Phi_s loses rank, or None; ``gap`` estimates the distance
+    between the two branches there (0 where they meet): ``2 sigma_min / sigma_max`` of Phi_s at a
+    point of the constraints near ``s`` (Newton's minimum-norm projection), which is half the
+    distance between the roots of f that Newton tells apart (the Kantorovich radius).
+
+    Solves ``f(s) = 0``, ``Phi_s(s)^T u = 0``, ``|u| = 1`` in the least-squares sense
+    (:func:`scipy.optimize.least_squares`, from ``s`` and the left singular vector u of
+    sigma_min(Phi_s) there): at a change point the residual vanishes; where two branches
+    only come near each other (a geometry close to a bifurcation) it stays at about the
+    smallest singular value of Phi_s on the constraints there.  The point is taken only
+    within the distance of ``s`` to the branches' estimated gap (``2 sigma_min / sigma_max``,
+    at least 1e-3 (1 + |s|)).
+
+    Returns
+    -------
+    point : ndarray, shape (n,), or None
+    gap : float
+    """
+    s = np.asarray(s, dtype=float)
+    r = system.r
+    Phi = system.jacobian(s)
+    U, sigma, _ = np.linalg.svd(Phi)
+    scale = float(sigma[0]) if sigma[0] > 0 else 1.0
+
+    def residual(x):
+        point, u = x[:-r], x[-r:]
+        f, J = system.constraints_and_jacobian(point)
+        return np.concatenate((f, J.T @ u / scale, [u @ u - 1.0]))
+
+    gap = _gap(system, s, sigma)
+    try:
+        found = _least_squares()(residual, np.concatenate((s, U[:, -1])), method="lm", xtol=1e-15, ftol=1e-15,
+                                 gtol=1e-15, max_nfev=200 * (s.size + r))
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return None, gap
+    point = found.x[:-r]
+    if not np.all(np.isfinite(found.fun)):
+        return None, gap
+    reach = max(gap, 1e-3) * (1.0 + float(np.max(np.abs(s))))
+    if np.max(np.abs(point - s)) <= reach and np.max(np.abs(found.fun)) <= MEETING_TOLERANCE * (
+            1.0 + float(np.max(np.abs(s)))):
+        return point, 0.0
+    return None, gap
+
+
+def _gap(system, s, sigma):
+    """``2 sigma_min / sigma_max`` of Phi_s at Newton's projection of ``s`` onto f = 0 (at ``s``, where it fails)."""
+    from ..formulations.projected import project_state
+
+    try:
+        on = project_state(system, s, np.zeros_like(s))[0]
+        sigma = np.linalg.svd(system.jacobian(on), compute_uv=False)
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+        pass
+    return 2.0 * float(sigma[-1]) / float(sigma[0]) if sigma[0] > 0 else 0.0
+
+
+def branch_error(t, position, low, high, distance, kantorovich, limit, system, method_name, names):
+    """The SingularConfigurationError of a path that can not tell two assembly branches apart at ``position``.
+
+    Where the branches meet near it (:func:`meeting_point`), a change point, which no
+    formulation passes; else they only come near each other, and the path's distance to
+    the constraints reached half the gap between them: the advice is a tighter tolerance.
+    """
     where = ", ".join(f"{name} = {value:.6g}" for name, value in zip(names, position))
     condition = math.inf if low == 0.0 else high / low
+    point, gap = (None, 0.0) if low == 0.0 else meeting_point(system, position)
+    if low == 0.0 or point is not None:
+        return SingularConfigurationError(
+            f"the path reaches a change point at t = {t:.6g} s ({where}) with {method_name}: Phi_s loses rank "
+            f"there (cond(Phi_s) = {condition:.3g}, Kantorovich number {kantorovich:.3g}), two assembly branches "
+            "meet, and the motion past it is not determined by these equations; no formulation of this library "
+            "passes a change point: end the run before it, or change the geometry"
+        )
     return SingularConfigurationError(
-        f"the path reaches a change point at t = {t:.6g} s ({where}) with {method_name}: Phi_s loses rank "
-        f"there (cond(Phi_s) = {condition:.3g}, Kantorovich number {kantorovich:.3g}), two assembly branches "
-        "meet, and the motion past it is not determined by these equations; no formulation of this library "
-        "passes a change point: end the run before it, or change the geometry"
+        f"the path comes as near another assembly branch as its own at t = {t:.6g} s ({where}) with "
+        f"{method_name}: the two branches pass within a distance of order {gap:.2g} of each other there "
+        f"(cond(Phi_s) = {condition:.3g}; they do not meet, Phi_s keeps its rank on the constraints nearby), and "
+        f"the path's drift off the constraints, {distance:.2g}, reached more than half of it (Kantorovich number "
+        f"{kantorovich:.3g} > {limit:g}), so the run can no longer tell which branch it follows; tighten rtol "
+        "and atol, so that the drift stays below that distance"
     )
+
+
+def change_point_error(found, system, method_name):
+    """The SingularConfigurationError for a point found by :func:`find_change_point` (see :func:`branch_error`)."""
+    t, position, low, high, kantorovich, distance = found
+    return branch_error(t, position, low, high, distance, kantorovich, CHANGE_POINT_LIMIT, system, method_name,
+                        list(system.coordinate_names))

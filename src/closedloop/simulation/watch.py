@@ -13,8 +13,10 @@ with the logarithm of its steps.  Each batch raises at a change point if it find
 branch guard objects there as well, and the change point is the cause), else at the earliest of
 the other failures:
 
-1. **A change point**, where Phi_s loses rank (:mod:`~closedloop.simulation.change_points`).
-   ``simulate(..., branch_limit=math.inf)`` turns this check off.
+1. **A change point**, where Phi_s loses rank (:mod:`~closedloop.simulation.change_points`), or,
+   for a redundant formulation, a place where two assembly branches only pass near each other
+   and the path's distance to the constraints reached half their gap: the run can not tell
+   which branch it is on.  ``simulate(..., branch_limit=math.inf)`` turns this check off.
 2. **The branch guard** (formulations in redundant coordinates).  Where det Phi_z of the
    model's partition changes sign between two step ends, a redundant-coordinate formulation
    either passes a dead position (Phi_s keeps full rank: fine) or jumps to another assembly
@@ -40,7 +42,7 @@ the other failures:
    Phi_z's smallest singular value; q' itself when f = 1) changes sign between two step
    ends, the turning point is located on the quintic Hermite interpolant of q and decided:
    the branch is followed from q there to as far beyond it as the step's far end lies
-   before it.  Where the mechanism assembles on its branch there, q turned back on its
+   before it (at least sqrt(eps) (1 + |q|)).  Where the mechanism assembles on its branch there, q turned back on its
    own (an ordinary turning point); where it does not, the branch ends between the
    turning point and that point, q turned back at a dead position, and the run stops with
    a SingularConfigurationError that names the time and the configuration.
@@ -62,9 +64,9 @@ import numpy as np
 
 from .. import hermite
 from ..errors import ConvergenceError, IntegrationError, SingularConfigurationError
-from ..linalg import partition_condition
+from ..linalg import NEAR_RANK_LOSS, NEARLY_SINGULAR, partition_condition
 from ..loading import first_use
-from .change_points import EPSILON, change_point_error, find_change_point
+from .change_points import EPSILON, branch_error, change_point_error, find_change_point, meeting_point
 
 __all__ = ["PathWatch", "diagnosis", "FIRST_BATCH", "BATCH_GROWTH", "CRAWL_STEPS", "CRAWL_FRACTION",
            "NEAR_RANK_LOSS"]
@@ -78,12 +80,6 @@ CRAWL_STEPS = 100
 #: A run whose last CRAWL_STEPS steps advanced less than this fraction of t_end - t_start crawls: at
 #: that pace it would need 1e7 steps, ten times MAX_STEPS.
 CRAWL_FRACTION = 1e-5
-#: cond(Phi_s) above which a message says Phi_s nearly loses rank (below it, a large Kantorovich number
-#: comes from a large |f|: the run drifted, at a well-conditioned configuration).
-NEAR_RANK_LOSS = 100.0
-#: cond(Phi_s), or |Phi_s| |Phi_z^-1| of the partition, above which :func:`diagnosis` names the matrix
-#: that is nearly singular at a state where an integration could not go on.
-NEARLY_SINGULAR = 1e3
 
 
 @first_use
@@ -126,8 +122,14 @@ def diagnosis(system, formulation, s):
     largest, smallest = singular_values[0], singular_values[-1]
     rank = math.inf if smallest == 0.0 else largest / smallest
     if rank > NEARLY_SINGULAR:
-        return (f"Phi_s nearly loses rank there (cond(Phi_s) = {rank:.3g}): two assembly branches meet, and no "
-                "formulation of this library passes a change point: end the run before it, or change the geometry")
+        point, gap = (None, 0.0) if smallest == 0.0 else meeting_point(system, s)
+        if smallest == 0.0 or point is not None:
+            return (f"Phi_s nearly loses rank there (cond(Phi_s) = {rank:.3g}): two assembly branches meet, and no "
+                    "formulation of this library passes a change point: end the run before it, or change the "
+                    "geometry")
+        return (f"Phi_s nearly loses rank there (cond(Phi_s) = {rank:.3g}): two assembly branches pass within about "
+                f"{gap:.2g} of each other, without meeting; give a max_step, so that the steps stay short where "
+                "they are near, or tighten rtol and atol")
     if formulation.guards_partition or formulation.guards_branch:
         condition = partition_condition(Phi, system.z_index)
         if condition > NEARLY_SINGULAR:
@@ -193,10 +195,12 @@ class PathWatch:
         waiting = len(self.times) - self.context + len(self.raw_times) - self.moved - 1
         if waiting >= max(FIRST_BATCH, BATCH_GROWTH * self.checked):
             self._move(len(self.raw_times) - 1)    # the last one may have overshot a switch: kept back
-            self._check()
+            self._check(more=True)
 
     def end(self, t_stop=None, y_stop=None):
-        """The segment ended at t_end, or at ``(t_stop, y_stop)`` (a switch, stop_when): step ends past it go."""
+        """The segment ended at t_end, or at ``(t_stop, y_stop)`` (a switch, stop_when): step ends past it go.
+
+        Its step ends are checked with the next batch (or by :meth:`flush`, when the run ends here)."""
         if t_stop is not None:
             keep = self.moved + sum(1 for t in self.raw_times[self.moved:] if t < t_stop)
             del self.raw_times[keep:], self.raw_states[keep:]
@@ -204,7 +208,7 @@ class PathWatch:
             self.raw_states.append(np.array(y_stop, dtype=float))
         self._move(len(self.raw_times))
         if len(self.times) - self.context >= max(FIRST_BATCH, BATCH_GROWTH * self.checked):
-            self._check()
+            self._check(more=True)
 
     def failed(self, failed_at=None):
         """The segment failed at ``failed_at`` (after its last step end): check every step end recorded.
@@ -244,8 +248,11 @@ class PathWatch:
         self.y.extend(states.T)
         self.segment_of.extend([segment] * len(times))
 
-    def _check(self, failed_at=None):
-        """Check the step ends moved out (after the context kept from the last batch); raise the earliest failure."""
+    def _check(self, failed_at=None, more=False):
+        """Check the step ends moved out (after the context kept from the last batch); raise the earliest failure.
+
+        ``more``: the path goes on after the last of them (a batch during the run).
+        """
         new = len(self.times) - self.context
         if new <= 0 or len(self.times) < 2:
             return
@@ -258,9 +265,10 @@ class PathWatch:
             self.largest_residuals = (
                 max(self.largest_residuals[0], float(np.sqrt(np.max(np.sum(residuals ** 2, 0))))),
                 max(self.largest_residuals[1], float(np.sqrt(np.max(np.sum(velocity ** 2, 0))))))
-            found = find_change_point(self.system, times, s, sd, failed_at, evaluated=(residuals, jacobians))
+            found = find_change_point(self.system, times, s, sd, failed_at, evaluated=(residuals, jacobians),
+                                      open_start=self.context > 0, open_end=more)
             if found is not None:
-                changed = change_point_error(found, list(self.system.coordinate_names), self.options.method_name)
+                changed = change_point_error(found, self.system, self.options.method_name)
                 failures.append((found[0], changed))
         crossings = []
         steps = self._steps(times)
@@ -297,7 +305,7 @@ class PathWatch:
         try:
             a0 = h * h * np.asarray(self._rhs(k, times[k], y0), dtype=float)[size:2 * size]
             a1 = h * h * np.asarray(self._rhs(k + 1, times[k + 1], y1), dtype=float)[size:2 * size]
-            if not (np.all(np.isfinite(a0)) and np.all(np.isfinite(a1))):
+            if not (np.all(np.abs(a0) < LARGE) and np.all(np.abs(a1) < LARGE)):   # not finite, or a rejected stage
                 raise ArithmeticError
         except (ArithmeticError, np.linalg.LinAlgError, ValueError):
             return (lambda u: hermite.values(u, p0, p1, v0, v1)), (lambda u: hermite.slopes(u, p0, p1, v0, v1))
@@ -347,13 +355,16 @@ class PathWatch:
             kantorovich = math.inf if smallest == 0 else largest * error / smallest ** 2
             if kantorovich > self.options.branch_limit:
                 condition = largest / smallest if smallest > 0 else math.inf
-                where = " where Phi_s nearly loses rank" if condition > NEAR_RANK_LOSS else ""
+                if condition > NEAR_RANK_LOSS:      # two branches close by: do they meet (a change point)?
+                    failures.append((t, branch_error(t, position(u), smallest, largest, error, kantorovich,
+                                                     self.options.branch_limit, system, self.options.method_name,
+                                                     list(system.coordinate_names))))
+                    return
                 failures.append((t, SingularConfigurationError(
-                    f"the path crossed a singular configuration of Phi_z at t = {t:.6g} s{where} (cond(Phi_s) = "
+                    f"the path crossed a singular configuration of Phi_z at t = {t:.6g} s (cond(Phi_s) = "
                     f"{condition:.3g}, |f| = {error:.3g}, Kantorovich number {kantorovich:.3g} > "
                     f"{self.options.branch_limit:g}): the constraint error is as large as the distance between "
-                    "assembly branches, so the run may have changed branch; tighten rtol and atol (at a "
-                    "bifurcation itself no formulation can choose the branch)")))
+                    "assembly branches, so the run may have changed branch; tighten rtol and atol")))
                 return
             crossings.append(t)
 
@@ -400,6 +411,13 @@ class PathWatch:
         ends = (s[qi, k], s[qi, k + 1])
         far = max(ends, key=lambda q: abs(float(normal @ (q - q_turn))))
         beyond = 2.0 * q_turn - far
+        # at least sqrt(eps) (1 + |q|) beyond: a step so short that its far end lies within round-off of the
+        # turning point can not tell a dead position (there Newton finds no z that near beyond it) apart
+        reach = math.sqrt(EPSILON) * (1.0 + float(np.max(np.abs(q_turn))))
+        across = normal / np.linalg.norm(normal)
+        if abs(float(across @ (beyond - q_turn))) < reach:
+            direction = np.sign(float(across @ (q_turn - far))) or 1.0
+            beyond = q_turn + direction * reach * across
         near = k if abs(float(normal @ (s[qi, k] - q_turn))) <= abs(float(normal @ (s[qi, k + 1] - q_turn))) else k + 1
         unpack = self.formulation.unpacker(system)
         unpack.seed(s[:, near])
@@ -446,6 +464,8 @@ class PathWatch:
         raise error
 
 
+#: Accelerations at a step end this large (or not finite) are not used for the quintic interpolant.
+LARGE = 1e100
 ClosedLoopErrors = (SingularConfigurationError, ConvergenceError, ArithmeticError, np.linalg.LinAlgError)
 
 
