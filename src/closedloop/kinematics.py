@@ -13,7 +13,7 @@ import numpy as np
 
 from .errors import ConvergenceError, InputError, SingularConfigurationError, at_time
 from .linalg import orthogonal_complement, solve_many, solve_small
-from .validation import finite_array
+from .validation import finite_array, shown
 
 __all__ = ["solve_dependent", "solve_dependent_many", "newton_on_constraints", "dependent_velocities",
            "consistent_initial_state", "InitialState", "NEWTON_TOLERANCE", "NEWTON_MAX_ITERATIONS"]
@@ -227,11 +227,22 @@ class InitialState:
     """
 
     def __init__(self, s, sd):
-        self.s = np.asarray(s, dtype=float)
-        self.sd = np.asarray(sd, dtype=float)
+        self.s = _numbers("s", s)
+        self.sd = _numbers("sd", sd)
 
     def __repr__(self):
         return f"InitialState(s={self.s!r}, sd={self.sd!r})"
+
+
+def _numbers(name, values):
+    """``values`` as a float array, or an InputError naming InitialState's ``name`` (finiteness is checked later,
+    by :func:`initial_state_arrays`, against the system's size too)."""
+    if isinstance(values, (str, bytes)):
+        raise InputError(f"InitialState: {name} must be numbers, got {shown(values)}")
+    try:
+        return np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"InitialState: {name} must be numbers, got {shown(values)}") from None
 
 
 def initial_state_arrays(initial_state, n):

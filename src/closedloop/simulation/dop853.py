@@ -339,7 +339,11 @@ class _StepWatch:
             if self.dense is not None:
                 self.dense.start(t)
             return 0
-        g = list(self.switching(t, y))
+        try:
+            g = list(self.switching(t, y))
+        except Exception as error:           # the compiled caller cannot propagate it
+            self.failure.append(error)
+            return -1
         for b, a, direction in zip(self.last_g, g, self.directions):
             if a != b and ((direction >= 0 and b <= 0.0 <= a) or (direction <= 0 and b >= 0.0 >= a)):
                 self.hit = (t, y.copy(), g)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from ..errors import ClosedLoopError, IntegrationError
 from . import dop853
+from .options import stop_when_value
 
 __all__ = ["segment"]
 
@@ -31,7 +32,7 @@ def _switching_values(run, unpack):
             return ()
         s, sd = unpack(y, t)
         values = switching_values(t, s, sd) if switching_values is not None else []
-        return values + [stop_when(t, s, sd)] if stop_when is not None else values
+        return values + [stop_when_value(stop_when, t, s, sd)] if stop_when is not None else values
 
     return switching
 

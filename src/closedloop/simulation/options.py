@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import math
 import types
 from dataclasses import dataclass
@@ -17,7 +18,7 @@ from ..validation import finite_array, finite_number, is_real, output_times, pos
 from . import dop853
 from .switching import MIN_PROGRESS, no_progress
 
-__all__ = ["RunOptions", "run_options", "methods_taking", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT",
+__all__ = ["RunOptions", "run_options", "methods_taking", "stop_when_value", "SOLVER_OPTIONS", "simulate_parameters", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT",
            "MAX_STEPS", "INITIAL_TOLERANCE", "IMPLICIT_METHODS"]
 
 # The methods simulate() accepts by name (solve_ivp's, and "ode.dop853", the compiled DOP853 of
@@ -174,11 +175,55 @@ def _check_method(formulation, method, switching, options):
     reserved = set(_RESERVED) & set(options)
     if reserved:
         raise InputError(f"solver options: {sorted(reserved)} are managed by simulate()")
-    if method == dop853.METHOD:
-        unknown = set(options) - set(dop853.ALLOWED_OPTIONS)
-        if unknown:
-            raise InputError(f"solver options: {sorted(unknown)} are not taken by {method}; it takes "
-                             f"{', '.join(dop853.ALLOWED_OPTIONS)}")
+    _check_option_names(method, options)
+
+
+#: The solver options each method takes through simulate()'s ``**options`` (solve_ivp's, and the compiled
+#: DOP853's own); an OdeSolver subclass given as the method takes any.
+SOLVER_OPTIONS = {
+    **{name: ("first_step", "max_step") for name in ("RK45", "RK23", "DOP853")},
+    **{name: ("first_step", "max_step", "jac", "jac_sparsity") for name in ("Radau", "BDF")},
+    "LSODA": ("first_step", "max_step", "min_step", "jac", "lband", "uband"),
+    dop853.METHOD: dop853.ALLOWED_OPTIONS,
+}
+
+
+def simulate_parameters():
+    """The names of simulate()'s own keyword parameters, from its signature."""
+    import inspect
+
+    from . import simulate
+
+    return tuple(name for name, parameter in inspect.signature(simulate).parameters.items()
+                 if parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY))
+
+
+def _check_option_names(method, options):
+    """Refuse a keyword that is neither simulate()'s nor a solver option of ``method``, naming the close match.
+
+    A misspelt option (``max_stp``) went on to solve_ivp, which warned and ignored it: the run was not the
+    one asked for.
+    """
+    if not isinstance(method, str):
+        return                                   # an OdeSolver of one's own: its options are its own
+    taken = SOLVER_OPTIONS[method]
+    unknown = [name for name in options if name not in taken]
+    if not unknown:
+        return
+    name = sorted(unknown)[0]
+    own = simulate_parameters()
+    if name in SOLVER_OPTIONS_OF_ANY:
+        others = [other for other, names in SOLVER_OPTIONS.items() if name in names]
+        first = f"{name}: not a solver option of {method} (only of {', '.join(others)});"
+    else:
+        guess = difflib.get_close_matches(name, own + taken, n=1)
+        first = f"{name}: unknown keyword of simulate()" + (f"; did you mean {guess[0]!r}?" if guess else ";")
+    raise InputError(f"{first} simulate() takes {', '.join(own)}, and for {method} the solver options "
+                     f"{', '.join(taken)}")
+
+
+#: Every solver option some method takes.
+SOLVER_OPTIONS_OF_ANY = tuple(sorted({name for names in SOLVER_OPTIONS.values() for name in names}))
 
 
 def _check_initial_state(system, initial_state):
@@ -226,6 +271,26 @@ def _check_inertia(system, s0, sd0, Phi0):
         )
 
 
+def stop_when_value(stop_when, t, s, sd):
+    """``stop_when(t, s, sd)`` as a float, or an InputError that names the time where it is no finite number.
+
+    A NaN never crosses zero, so a run would go on with stop_when silently off; a bool
+    crosses zero at every False; an exception inside it would end the run with no time.
+    """
+    try:
+        value = stop_when(t, s, sd)
+    except Exception as error:
+        raise InputError(f"stop_when: stop_when(t, s, sd) raised {type(error).__name__} at t = {t:.6g} s: "
+                         f"{error}") from None
+    number = value.item() if isinstance(value, np.ndarray) and value.size == 1 else value
+    if isinstance(number, np.generic):
+        number = number.item()
+    if not is_real(number) or not math.isfinite(number):
+        raise InputError(f"stop_when: must return a finite number (it stops the run where it crosses zero upward), "
+                         f"got {shown(value)} at t = {t:.6g} s")
+    return float(number)
+
+
 def _check_steps(solver_options):
     """The step options: ``max_step`` (> 0, inf for none) and ``first_step`` (> 0) as floats [s], ``nsteps``."""
     checked = dict(solver_options)
@@ -260,8 +325,10 @@ def run_options(system, initial_state, formulation, *, t_start, t_end, method, r
         name = "stop_when" if stop_when is not None else "work"
         raise InputError(f"{name}: a run with switching='naive' neither stops early nor integrates the work; "
                          "use switching='events'")
-    if stop_when is not None and not callable(stop_when):
-        raise InputError("stop_when: expected a callable stop_when(t, s, sd) -> float")
+    if stop_when is not None:
+        if not callable(stop_when):
+            raise InputError(f"stop_when: expected a callable stop_when(t, s, sd) -> float, got {shown(stop_when)}")
+        stop_when_value(stop_when, t_start, initial_state.s, initial_state.sd)     # refused here, not mid-run
     return RunOptions(t_start=t_start, t_end=t_end, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
                       multipliers=bool(multipliers), stop_when=stop_when, sticking_resolution=sticking_resolution,
                       max_segments=max_segments, switching=switching, max_nfev=max_nfev, max_steps=max_steps,

@@ -14,6 +14,7 @@ import numpy as np
 from ..errors import ClosedLoopError, IntegrationError
 from ..methods import scipy_integrate, solver_class, solver_classes
 from . import switching as rule
+from .options import stop_when_value
 
 __all__ = ["segment", "counting_solver", "SOLVER_CLASSES", "STANDING_STEPS"]
 
@@ -99,8 +100,11 @@ def _events(run, unpack, mode, t0):
         event.terminal, event.direction = True, (-1.0 if mode[i] else 1.0)
         events.append(event)
     if run.options.stop_when is not None:
+        stop_when = run.options.stop_when
+
         def stop(t, y):
-            return run.options.stop_when(t, *unpack(y, t))
+            s, sd = unpack(y, t)
+            return stop_when_value(stop_when, t, s, sd)
 
         stop.terminal, stop.direction = True, 1.0
         events.append(stop)
