@@ -7,6 +7,7 @@ warning of SimulationResult.warnings, and, where there is one, a number that agr
 """
 
 import dataclasses
+import json
 import math
 import re
 
@@ -724,3 +725,168 @@ def test_command_line_figure_names(command, tmp_path, capsys):
                                                f"file name ending in .png, got '{tmp_path / 'figure.pdf'}'")
     assert main([*command, str(tmp_path / "figure.png")]) == 0
     assert (tmp_path / "figure.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+# -- the messages of issue 34, each provoked and its advice followed ------------------------------------------
+
+OVER_THE_TOP = (np.pi / 2, 2.0)        # the 3 x 1 parallelogram's crank turns over: theta1 = pi at 0.517 s
+
+
+@pytest.mark.parametrize("rtol", [1e-3, 1e-6])
+@pytest.mark.parametrize("follow", ["end the run before it", "change the geometry"])
+def test_the_compiled_dop853_at_a_change_point(rtol, follow):
+    """ode.dop853 said "det Phi_z changed sign ... use a solve_ivp method, which has the branch guard, with
+    ClosedForm or with the NullSpace formulation", which fails there too (rtol 1e-3); at 1e-6 its steps of 0.18
+    s passed the first fold unseen and the error named the second, at t = 1.02 s. Both name the first, and
+    the change point's advice works."""
+    system = System(four_bar_model(), PARALLELOGRAM)
+    start = consistent_initial_state(system, [OVER_THE_TOP[0]], [OVER_THE_TOP[1]], [0.0, OVER_THE_TOP[0]])
+    settings = dict(formulation=ClosedForm(5, 5), method="ode.dop853", rtol=rtol, atol=rtol)
+    with pytest.raises(SingularConfigurationError) as error:
+        simulate(system, start, 2.0, **settings)
+    assert str(error.value).startswith("the path reaches a change point at t = 0.517")
+    assert str(error.value).endswith("no formulation of this library passes a change point: end the run before "
+                                     "it, or change the geometry")
+    if follow == "end the run before it":
+        passes(simulate(system, start, stop_time(error.value) - 0.01, **settings), stop_time(error.value) - 0.01)
+    else:
+        other = System(four_bar_model(), NOT_A_PARALLELOGRAM)
+        state = consistent_initial_state(other, [OVER_THE_TOP[0]], [OVER_THE_TOP[1]], [0.0, OVER_THE_TOP[0]])
+        result = passes(simulate(other, state, 2.0, **settings), 2.0)
+        energy = other.energy(result.s, result.sd)
+        assert np.ptp(energy) < 100 * rtol * np.max(np.abs(energy))
+
+
+NEAR = SliderCrankParameters(l2=1.0001 * 2.0)     # Table 1's crank, a rod 0.01 % longer than it: no change point
+
+
+@pytest.mark.parametrize("follow", ["tighten rtol and atol", "Baumgarte"])
+def test_the_drift_near_a_bifurcation_is_not_called_a_change_point(follow):
+    """Augmented (and ClosedForm(0, 0)) at rtol 1e-6 stopped with "change point ... two assembly branches meet
+    ... no formulation of this library passes a change point", at cond(Phi_s) = 183: the branches only come
+    near each other, and the drift reached their distance. The message says so, and its advice works."""
+    system = slider_crank_system(NEAR)
+    state = initial_state(system, math.pi / 2, 1.0)
+    with pytest.raises(SingularConfigurationError) as error:
+        simulate(system, state, 8.0, formulation=Augmented(), method="RK45", rtol=1e-6, atol=1e-6)
+    message = str(error.value)
+    assert message.startswith("the path comes as near another assembly branch as its own at t = 6.8")
+    assert "they do not meet, Phi_s keeps its rank on the constraints nearby" in message
+    assert "change point" not in message
+    gap = float(re.search(r"within a distance of order ([0-9.e-]+) of each other", message).group(1))
+    drift = float(re.search(r"drift off the constraints, ([0-9.e-]+),", message).group(1))
+    assert 2 * drift > 0.5 * gap                                    # the Kantorovich number above 1/2, in words
+    assert message.endswith("; tighten rtol and atol, so that the drift stays below that distance")
+    options = (dict(formulation=Augmented(), rtol=1e-9, atol=1e-9) if follow == "tighten rtol and atol"
+               else dict(formulation=Baumgarte(5, 5), rtol=1e-6, atol=1e-6))
+    result = passes(simulate(system, state, 8.0, method="RK45", **options), 8.0)
+    assert np.max(np.cos(result.coordinate("psi"))) < 0                # on the paper's branch throughout
+
+
+def test_the_command_line_says_why_a_formulation_does_not_take_a_method(capsys):
+    """--formulation projected --method Radau said "method: unknown 'Radau'; choose one of RK45, RK23, DOP853":
+    Radau is a method, which Projected does not take (it resets the state of a Runge-Kutta step)."""
+    assert main(["simulate", "--case", "2", "--t-end", "0.2", "--formulation", "projected", "--method", "Radau"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == ("closedloop: error: method: the projected formulation needs an explicit Runge-Kutta method of "
+                   "solve_ivp, whose state it resets after each step (RK23, RK45, DOP853), got 'Radau'")
+    for method in re.search(r"\(([^()]*)\), got", err).group(1).split(", "):
+        assert main(["simulate", "--case", "2", "--t-end", "0.2", "--formulation", "projected", "--method",
+                     method]) == 0, method
+    # --formulation baumgarte --method ode.dop853 said "unknown 'ode.dop853'": the compiled code now runs it
+    capsys.readouterr()
+    assert main(["simulate", "--case", "2", "--t-end", "0.2", "--formulation", "baumgarte", "--method",
+                 "ode.dop853", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["method"] == "ode.dop853"
+
+
+def test_a_basin_map_too_long_for_the_step_limit_advises_a_t_end_that_passes():
+    """basin --t-end 1e9 advised "give a step >= 1e+04 s", which the step check then refused: no step both
+    resolves the map and keeps within MAX_STEPS. The message now gives t_end bounds that pass both checks."""
+    from closedloop.studies.basin import DEFAULT_STEP, MAX_STEPS, _check_step, _check_time, _step_bound
+
+    system = slider_crank_system()
+    rates = np.linspace(0.0, 3.0, 4)
+    assert main(["basin", "--phi0", "0:2pi:4", "--dphi0", "0:3:4", "--t-end", "1e9"]) == 2
+    with pytest.raises(InputError) as error:
+        _check_time(1e9, DEFAULT_STEP, _step_bound(system, rates)[2])
+    message = str(error.value)
+    assert message.startswith(f"t_end: 1e+09 s would take more than {MAX_STEPS} steps")
+    numbers = re.search(r"give a t_end <= ([0-9.e+]+) s \(with this step of ([0-9.e+-]+) s\), or <= ([0-9.e+]+) s "
+                        r"with a step of ([0-9.e+-]+) s$", message).groups()
+    t_short, step, t_long, long_step = map(float, numbers)
+    for t_end, h in ((t_short, step), (t_long, long_step)):        # the checks the map makes before it runs
+        _check_time(t_end, h, _step_bound(system, rates)[2])
+        _check_step(system, h, rates)
+    assert t_short < t_long < 1e9
+
+
+@pytest.mark.parametrize("case", ["more constraints than coordinates", "velocities as text"])
+def test_a_model_says_what_is_wrong_with_it(case):
+    """MultibodyModel with three constraints on two coordinates said "need n - r = 2 - 3 = -1 independent
+    coordinates"; with velocities given as text, "unexpected symbols ['dx', 'dy']; declare them as parameters"."""
+    x, y, dx, dy, m, l, g = sp.symbols("x y dx dy m l g")
+    pieces = dict(coordinates=(x, y), velocities=(dx, dy), kinetic_energy=m * (dx**2 + dy**2) / 2,
+                  potential_energy=m * g * y, constraints=(x**2 + y**2 - l**2,), independent=(x,), parameters=(m, l, g))
+    if case == "more constraints than coordinates":
+        wrong = dict(pieces, constraints=(x**2 + y**2 - l**2, x - y, x + y), independent=())
+        expected = ("constraints: 3 constraints on 2 coordinates leave no degree of freedom; a closed loop has "
+                    "fewer constraints than coordinates (r < n)")
+    else:
+        wrong = dict(pieces, velocities=("dx", "dy"))
+        expected = "velocities: must be sympy Symbols (made with sympy.symbols), got 'dx' (str)"
+    with pytest.raises(InputError) as error:
+        MultibodyModel(**wrong)
+    assert str(error.value) == expected
+    system = System(MultibodyModel(**pieces), {"m": 1.0, "l": 1.0, "g": 9.81})     # the advice: a pendulum
+    state = consistent_initial_state(system, [0.6], [0.0], [-0.8])
+    result = passes(simulate(system, state, 1.0, method="DOP853", rtol=1e-10, atol=1e-10), 1.0)
+    theta = solve_ivp(lambda t, u: [u[1], -9.81 * math.sin(u[0])], (0.0, 1.0), [math.asin(0.6), 0.0],
+                      method="DOP853", rtol=1e-12, atol=1e-12).y[0, -1]
+    assert result.coordinate("x")[-1] == pytest.approx(math.sin(theta), abs=1e-7)
+
+
+def test_dependent_constraints_are_not_called_a_dead_position():
+    """Two constraints that are one (the second twice the first) said "Phi_z is singular ... (a kinematic
+    singularity); start from another guess of z or choose other independent coordinates": no guess and no
+    partition helps. Removing the repeated constraint, as advised, gives the pendulum."""
+    theta, x, y, dtheta, dx, dy, m, l, g = sp.symbols("theta x y dtheta dx dy m l g")
+    pieces = dict(coordinates=(theta, x, y), velocities=(dtheta, dx, dy), kinetic_energy=m * (dx**2 + dy**2) / 2,
+                  potential_energy=m * g * y, independent=(theta,), parameters=(m, l, g))
+    values = {"m": 2.0, "l": 1.5, "g": 9.81}
+    repeated = System(MultibodyModel(constraints=(x - l * sp.sin(theta), 2 * (x - l * sp.sin(theta))), **pieces),
+                      values)
+    with pytest.raises(SingularConfigurationError) as error:
+        consistent_initial_state(repeated, [0.3], [0.0], [0.4, -1.4])
+    message = str(error.value)
+    assert message.startswith("the constraints are not independent at s = ") and "dead position" not in message
+    assert "Phi_s has rank 1 < r = 2 there" in message
+    assert message.endswith("remove a constraint that repeats the others, or, at a change point of the mechanism, "
+                            "start away from it")
+    system = System(MultibodyModel(constraints=(x - l * sp.sin(theta), y + l * sp.cos(theta)), **pieces), values)
+    passes(simulate(system, consistent_initial_state(system, [0.3], [0.0], [0.4, -1.4]), 0.5), 0.5)
+
+
+@pytest.mark.parametrize("method", ["RK45", "LSODA", "ode.dop853"])
+def test_a_force_that_turns_nan_is_named(method):
+    """A force that returns NaN after t = 0.5 s gave "the step size underflowed ... the motion or a force is most
+    likely singular there" (RK45), a change point at a NaN state (LSODA, which took the step), or "the step size
+    became too small ... Try an implicit method" (ode.dop853). The force is named, and ending the run before
+    t = 0.5 s, as advised, gives the pendulum's motion."""
+    def force(t, s, sd):
+        return np.array([0.0 if t < 0.5 else np.nan, 0.0, 0.0])
+
+    system = System(pendulum_model(), {"m": 2.0, "l": 1.5, "g": 9.81}, force=force)
+    state = consistent_initial_state(system, [0.3], [0.0], [0.4, -1.4])
+    formulation = ClosedForm() if method == "ode.dop853" else Baumgarte()
+    with pytest.raises(IntegrationError) as error:
+        simulate(system, state, 2.0, formulation=formulation, method=method)
+    message = str(error.value)
+    assert "; the force returned [nan  0.  0.] at t = 0.5" in message and "at a finite state" in message
+    t_fail = float(re.search(r"end the run before t = ([0-9.e+-]+) s, or mend the force$", message).group(1))
+    assert 0.5 <= t_fail < 0.53
+    result = passes(simulate(system, state, 0.49, formulation=formulation, method=method, rtol=1e-10, atol=1e-10),
+                    0.49)
+    exact = solve_ivp(lambda t, u: [u[1], -9.81 / 1.5 * math.sin(u[0])], (0.0, 0.49), [0.3, 0.0], method="DOP853",
+                      rtol=1e-12, atol=1e-12).y[0, -1]
+    assert result.coordinate("theta")[-1] == pytest.approx(exact, abs=1e-7)

@@ -254,6 +254,8 @@ def run_simulate(args):
     methods = methods_taking(formulation)
     method = args.method if args.method is not None else (
         DEFAULT_METHOD if DEFAULT_METHOD in methods else FALLBACK_METHOD)
+    if method in SOLVER_METHODS:
+        formulation.check_method(method)          # a method the formulation does not take: its own reason
     one_of("method", method, methods)
     reading = get_reading(args.reading)
     _check_figure_file("--plot", args.plot)
@@ -291,7 +293,8 @@ def run_simulate(args):
 
         label = f"case {case}" if case else f"phi0 = {phi0:g} rad, dphi0 = {dphi0:g} rad/s"
         motion = summary["motion"] or NOT_CLASSIFIED
-        save_figure(plot_slider_crank(result, title=f"Slider-crank, {label}: {motion}"), args.plot, dpi=120)
+        save_figure(plot_slider_crank(result, title=f"Slider-crank, {label}: {motion}"), args.plot, dpi=120,
+                    option="--plot")
         summary["plot"] = args.plot
     return summary
 
@@ -312,14 +315,14 @@ def _check_json_file(option, path):
         check_file(option, path)
 
 
-def _write_json(path, data, indent=None):
+def _write_json(path, data, indent=None, option="--json"):
     """``data`` as JSON into ``path``, atomically, or onto standard output for ``-``."""
     if path == STDOUT:
         json.dump(data, sys.stdout, indent=indent)
         sys.stdout.write("\n")
         sys.stdout.flush()
         return
-    with atomic_write(path) as handle:
+    with atomic_write(path, option=option) as handle:
         json.dump(data, handle, indent=indent)
         handle.write("\n")
 
@@ -386,7 +389,7 @@ def run_basin(args, progress=None):
     if args.png is not None:
         from .plotting import plot_basin_map
 
-        save_figure(plot_basin_map(basin), args.png, dpi=120)
+        save_figure(plot_basin_map(basin), args.png, dpi=120, option="--png")
     return basin
 
 
@@ -496,7 +499,7 @@ def run_benchmark(args):
         written["residuals_case2.png"] = residual_figure(
             residual_traces(2, "DOP853", 1e-6), "Case 2, DOP853, rtol = atol = 1e-6")
         for name, fig in written.items():
-            save_figure(fig, str(figures / name), dpi=110)
+            save_figure(fig, str(figures / name), dpi=110, option="--figures")
         lines.append(f"figures written to {figures}: {', '.join(written)}")
     return "\n".join(lines)
 

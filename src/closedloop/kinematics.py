@@ -12,10 +12,10 @@ import math
 import numpy as np
 
 from .errors import ConvergenceError, InputError, SingularConfigurationError, at_time
-from .linalg import orthogonal_complement, solve_many, solve_small
+from .linalg import RANK_LIMIT, orthogonal_complement, solve_many, solve_small
 from .validation import finite_array, shown
 
-__all__ = ["solve_dependent", "solve_dependent_many", "newton_on_constraints", "dependent_velocities",
+__all__ = ["solve_dependent", "solve_dependent_many", "dependent_constraints_error", "newton_on_constraints", "dependent_velocities",
            "consistent_initial_state", "InitialState", "NEWTON_TOLERANCE", "NEWTON_MAX_ITERATIONS"]
 
 #: Newton stops when |f| (or its step) is below this, relative to 1 + |s| (or 1 + |z|).
@@ -151,7 +151,7 @@ def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
         try:
             step = solve_small(Phi[:, zi], f)
         except np.linalg.LinAlgError:
-            raise SingularConfigurationError(
+            raise dependent_constraints_error(Phi, s, t) or SingularConfigurationError(
                 f"Phi_z is singular{at_time(t)} at s = {np.array2string(s, precision=6)}: "
                 "the dependent coordinates are not determined there (a kinematic singularity); "
                 "start from another guess of z or choose other independent coordinates"
@@ -167,6 +167,26 @@ def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
         f"Newton on f(q, z) = 0 did not converge in {max_iterations} iterations{at_time(t)} "
         f"(q = {np.array2string(np.asarray(q), precision=6)}, |f| = {residual:.3g}): the mechanism "
         "may not assemble at this q, or the guess of z is on no branch"
+    )
+
+
+def dependent_constraints_error(Phi, s, t=None):
+    """The SingularConfigurationError for constraints whose Jacobian Phi_s (r x n) loses rank at ``s``, or None.
+
+    A Phi_z that is singular because the rows of Phi_s themselves are dependent is no dead position of
+    the independent coordinates: no guess of z and no other partition helps.
+    """
+    singular_values = np.linalg.svd(np.asarray(Phi, dtype=float), compute_uv=False)
+    if not (np.all(np.isfinite(singular_values)) and singular_values[0] > 0):
+        return None
+    if singular_values[-1] > RANK_LIMIT * singular_values[0]:
+        return None
+    rank = int(np.sum(singular_values > RANK_LIMIT * singular_values[0]))
+    return SingularConfigurationError(
+        f"the constraints are not independent{at_time(t)} at s = {np.array2string(np.asarray(s), precision=6)}: "
+        f"Phi_s has rank {rank} < r = {singular_values.size} there, so f = 0 does not fix the dependent "
+        "coordinates; remove a constraint that repeats the others, or, at a change point of the mechanism, "
+        "start away from it"
     )
 
 
@@ -292,6 +312,9 @@ def consistent_initial_state(system, q0, qd0, z_guess):
     try:
         return InitialState(s, dependent_velocities(system, s, qd0))
     except SingularConfigurationError:
+        dependent = dependent_constraints_error(system.jacobian(s), s)
+        if dependent is not None:
+            raise dependent from None
         raise SingularConfigurationError(
             f"q0: Phi_z is singular at q0 = {q0.tolist()} (a dead position of the independent coordinates), so "
             "q'(0) does not fix z'(0) through (9); start away from it, or give InitialState(s0, s0') with "

@@ -30,6 +30,10 @@ def solve_augmented(M, Phi, p1, p2, t=None):
     try:
         x = solve_dense(K, np.concatenate((p1, p2)))
     except np.linalg.LinAlgError:
+        if not np.all(np.isfinite(K)):
+            raise SingularConfigurationError(
+                f"the augmented matrix of (12) is not finite{at_time(t)}: the state it was formed at is not "
+                "(a step whose stage overflowed, or a force that returned NaN before it)") from None
         raise SingularConfigurationError(
             f"the augmented matrix of (12) is singular{at_time(t)}: the constraints are dependent "
             "(cond(Phi_s) = inf: assembly branches meet, a change point) and no formulation of this library "

@@ -223,6 +223,7 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                 f"ode.dop853 failed at t = {t_code:.6g} s: {_reason(code, nsteps)}. "
                 "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains")
             error.return_code, error.t, error.max_steps_reached = code, float(t_code), False
+            error.last_call = _LATEST[0]           # where the failing attempts evaluated the right-hand side
             raise _with_failed_at(error)
         watch.last_t, watch.last_y = t_end, np.array(y_code, dtype=float)
     if dense is not None:
@@ -272,6 +273,8 @@ def _counting(rhs, max_nfev, failure, calls=None):
     recording = calls is not None
     if recording:
         add_time, add_values = calls.times.append, calls.values.extend
+    latest = _LATEST                                # the time of the last call, for a failure's message
+    latest[0] = math.nan
 
     def record(on):
         nonlocal recording
@@ -280,6 +283,7 @@ def _counting(rhs, max_nfev, failure, calls=None):
     def counted(t, y):
         nonlocal count
         count += 1
+        latest[0] = t
         try:
             if count > max_nfev:
                 raise BudgetExceeded(t)
@@ -293,6 +297,10 @@ def _counting(rhs, max_nfev, failure, calls=None):
         return f
 
     return counted, lambda: count, record
+
+
+#: The time of the last right-hand side of the segment under way (one list: no allocation per call).
+_LATEST = [math.nan]
 
 
 def _failed_at(t, error):

@@ -61,6 +61,13 @@ def segment(run, t0, s0, sd0, mode):
         raise run.budget_error(exceeded.t) from None
     except ClosedLoopError as error:                # a change point passed earlier is the real cause
         run.path.failed(getattr(error, "failed_at", None))
+        if run.path.error is None and not getattr(error, "max_steps_reached", False):
+            times = [getattr(error, name, None) for name in ("t", "failed_at", "last_call")]
+            times = [t for t in times if t is not None and t == t]
+            force = run.path.force_clause_before(max(times)) if times else ""
+            if force:                                # a force that is not finite is the cause: named
+                raise IntegrationError(f"ode.dop853 failed at t = {max(times):.6g} s{force}; end the run before "
+                                       f"t = {max(times):.6g} s, or mend the force") from None
         if getattr(error, "max_steps_reached", False):  # simulate's max_steps, not the compiled code's nsteps
             raise IntegrationError(                 # (the watch counted this segment's steps only)
                 f"ode.dop853 reached max_steps = {options.max_steps} at t = {error.t:.6g} s of t_end = "

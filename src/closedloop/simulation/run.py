@@ -15,6 +15,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import IntegrationError, SingularConfigurationError
+from ..validation import shown_array
 from . import switching as rule
 from . import watch
 from .options import IMPLICIT_METHODS
@@ -134,8 +135,25 @@ class Run:
         which = [name for name, v in zip(names, y_out[:, k]) if not np.isfinite(v)]
         raise IntegrationError(
             f"the state became non-finite at t = {t_out[k]:.6g} s with {self.options.method_name} "
-            f"({', '.join(which)} = {y_out[names.index(which[0]), k]}); {self.advice()}"
+            f"({', '.join(which)} = {y_out[names.index(which[0]), k]}){self.path.force_clause_before(t_out[k])}; "
+            f"{self.advice()}"
         )
+
+    def force_clause(self, t, s, sd, mode=None):
+        """``"; the force returned [nan ...] at t = ... s at a finite state ..."`` where the system's forces are not
+        finite at ``(t, s, s')`` (a finite state), else ``""``: what a failed integration names as its cause."""
+        s, sd = np.asarray(s, dtype=float), np.asarray(sd, dtype=float)
+        if not (np.all(np.isfinite(s)) and np.all(np.isfinite(sd))):
+            return ""
+        try:
+            with np.errstate(all="ignore"):
+                tau = self.system.applied_forces(t, s, sd, mode)
+        except Exception as error:
+            return f"; the force raised {type(error).__name__} at t = {t:.6g} s: {error}"
+        if np.all(np.isfinite(tau)):
+            return ""
+        return (f"; the force returned {shown_array(tau)} at t = {t:.6g} s, at a finite state (s = {shown_array(s)}, "
+                f"s' = {shown_array(sd)}): a force must return finite numbers wherever the run goes")
 
     def overflow_error(self, error):
         """The IntegrationError for an arithmetic overflow (``error``) outside the integrator's steps."""

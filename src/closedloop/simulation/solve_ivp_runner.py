@@ -159,7 +159,7 @@ def segment(run, t0, s0, sd0, mode):
         t_stop, y_stop = sol.t_events[event][0], sol.y_events[event][0]
     if sol.status == -1:
         run.path.failed()
-        raise IntegrationError(_failure_message(run, sol.message, t0, overflow))
+        raise IntegrationError(_failure_message(run, sol.message, t0, overflow, reached[0]))
     run.path.end(t_stop, y_stop)
     t_out = np.asarray(sol.t, dtype=float)          # solve_ivp gives lists when t_eval is empty
     y_out = np.asarray(sol.y, dtype=float).reshape(y0.size, t_out.size)
@@ -214,9 +214,11 @@ def _last_step(run):
     return run.step_sizes[-1] if run.step_sizes else math.nan
 
 
-def _failure_message(run, message, t0, overflow):
-    """The IntegrationError text for a solve_ivp failure: time, quantity, what to try."""
+def _failure_message(run, message, t0, overflow, evaluated):
+    """The IntegrationError text for a solve_ivp failure: time, quantity, what to try (``evaluated``: the time of
+    the last right-hand side, where a force that is not finite is named)."""
     t, step, name = _time_reached(run, t0), _last_step(run), run.options.method_name
+    force = run.path.force_clause_before(evaluated)
     if run.steps_exhausted:
         text = (f"{name} reached max_steps = {run.options.max_steps} at t = {t:.6g} s of "
                 f"t_end = {run.t_end:g} s (last step size {step:.3g} s, mean "
@@ -226,12 +228,13 @@ def _failure_message(run, message, t0, overflow):
     elif message and "step size is less than spacing" in message:
         text = (f"{name} failed at t = {t:.6g} s: the step size underflowed (it must stay "
                 f"above 10 ulp(t) = {10 * np.spacing(abs(t)):.3g} s; the last accepted step was "
-                f"{step:.3g} s)")
-        advice = (f"no step that float64 resolves at this t meets the tolerances, so the motion or a force is "
+                f"{step:.3g} s){force}")
+        advice = (f"end the run before t = {t:.6g} s, or mend the force" if force else
+                  f"no step that float64 resolves at this t meets the tolerances, so the motion or a force is "
                   f"most likely singular there: end the run before t = {t:.6g} s (an implicit method or looser "
                   "tolerances do not carry a run through a singularity)")
     else:
-        text = f"{name} failed at t = {t:.6g} s (last step {step:.3g} s): {message}"
+        text = f"{name} failed at t = {t:.6g} s (last step {step:.3g} s): {message}{force}"
         advice = run.advice()
     if overflow:
         text += (f"; the right-hand side overflowed ({overflow[-1][1]}) at t = {overflow[-1][0]:.6g} s, "

@@ -9,9 +9,8 @@ first after :data:`FIRST_BATCH` step ends, then whenever the step ends not yet c
 :data:`BATCH_GROWTH` times those checked.  A run that meets one of the failures below therefore
 stops after integrating at most about a quarter more than the run up to it (and
 :data:`FIRST_BATCH` steps), and a run that meets none pays for a number of batches that grows
-with the logarithm of its steps.  Each batch raises at a change point if it finds one (the
-branch guard objects there as well, and the change point is the cause), else at the earliest of
-the other failures:
+with the logarithm of its steps.  Each batch raises at the earliest of these failures (but at
+the first, where the branch guard objects within a step of it):
 
 1. **A change point**, where Phi_s loses rank (:mod:`~closedloop.simulation.change_points`), or,
    for a redundant formulation, a place where two assembly branches only pass near each other
@@ -231,6 +230,22 @@ class PathWatch:
             self._check()
 
     # -- the batches ------------------------------------------------------------------
+    def force_clause_before(self, t):
+        """:meth:`Run.force_clause` at time ``t`` and the last finite state recorded before it (``""`` if the forces are
+        finite there): whether a force that is not finite is why the state became so."""
+        for k in range(len(self.times) - 1, -1, -1):
+            if self.times[k] <= t and np.all(np.isfinite(self.s[k])) and np.all(np.isfinite(self.sd[k])):
+                mode = self.modes[self.segment_of[k]]
+                return self.run.force_clause(t, self.s[k], self.sd[k], mode)
+        for y in reversed(self.raw_states):
+            if np.all(np.isfinite(y)):
+                try:
+                    s, sd = self.unpack(y[:-1] if self.options.work else y, t)
+                except ClosedLoopErrors:
+                    return ""
+                return self.run.force_clause(t, s, sd, self.modes[-1] if self.modes else None)
+        return ""
+
     def _move(self, upto):
         """Move the current segment's step ends ``moved .. upto-1`` out, with their coordinates and velocities."""
         if upto <= self.moved:
@@ -258,6 +273,14 @@ class PathWatch:
             return
         times = np.asarray(self.times, dtype=float)
         s, sd = np.array(self.s).T, np.array(self.sd).T
+        finite = np.all(np.isfinite(s), axis=0) & np.all(np.isfinite(sd), axis=0)
+        if not np.all(finite):                  # an accepted step to a non-finite state (LSODA takes some)
+            k = int(np.argmin(finite))
+            force = self.force_clause_before(times[k])
+            self.error = IntegrationError(
+                f"the state became non-finite at t = {times[k]:.6g} s with {self.options.method_name}{force}; "
+                + (f"end the run before t = {times[k]:.6g} s, or mend the force" if force else self.run.advice()))
+            raise self.error
         residuals, jacobians = self.system.constraints_and_jacobian_many(s)
         failures, changed = [], None
         if self.active:
@@ -276,8 +299,13 @@ class PathWatch:
             self._branch_guard(steps, times, residuals, jacobians, crossings, failures)
         else:
             self._turning_points(steps, times, s, sd, jacobians, failures)
-        if failures:            # a change point first (the branch guard objects there too), else the earliest
-            t, error = failures[0] if failures[0][1] is changed else min(failures, key=lambda failure: failure[0])
+        if failures:
+            t, error = min(failures, key=lambda failure: failure[0])
+            if changed is not None and error is not changed:
+                # where the path can not tell the branches apart, the branch guard objects too, within a step
+                found_at = next(at for at, failure in failures if failure is changed)
+                if found_at - t <= float(np.max(np.diff(times))):
+                    t, error = found_at, changed
             self.error = error
             raise error
         self.run.partition_singularities.extend(t for t in crossings if not self.run.partition_singularities
@@ -449,6 +477,9 @@ class PathWatch:
         except ClosedLoopErrors:
             pass
         kind = IntegrationError if why is None else SingularConfigurationError
+        force = self.force_clause_before(t)
+        if why is None and force:
+            why = f"{force[2:]}; end the run before t = {t:.6g} s, or mend the force"
         if why is None and run.overflows:
             at, detail = run.overflows[-1]
             why = (f"the right-hand side overflowed at t = {at:.6g} s ({detail}): the motion ran away at rtol = "
