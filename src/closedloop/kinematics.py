@@ -44,8 +44,10 @@ def newton_on_constraints(evaluate, correct, s, tolerance=NEWTON_TOLERANCE, max_
         The starting state(s); changed in place.  With K columns every
         reduction runs down the columns and all of them must pass.
     tolerance : float
-        Newton stops when ``max |f| <= tolerance (1 + max |s|)`` (|s| at the
-        start), or when a step is below ``tolerance (1 + max |entries|)``.
+        Newton stops when ``max |f| <= tolerance (1 + max |s|)`` (the smaller
+        |s| of the start and of the iterate: a guess far off, 4.5e15 say, does
+        not make |f| = 0.5 small), or when a step is below
+        ``tolerance (1 + max |entries|)``.
     max_iterations : int
 
     Returns
@@ -59,7 +61,7 @@ def newton_on_constraints(evaluate, correct, s, tolerance=NEWTON_TOLERANCE, max_
     f_tolerance = tolerance * (1.0 + np.abs(s).max(axis=0))
     for _ in range(max_iterations):
         f, Phi = evaluate(s)
-        if np.all(np.abs(f).max(axis=0) <= f_tolerance):
+        if np.all(np.abs(f).max(axis=0) <= np.minimum(f_tolerance, tolerance * (1.0 + np.abs(s).max(axis=0)))):
             return s, Phi
         step = correct(s, f, Phi)
         if not np.all(np.isfinite(s)):
@@ -96,7 +98,8 @@ def _newton_one_state(evaluate, correct, s, tolerance, max_iterations):
     f_tolerance = tolerance * (1.0 + _largest_magnitude(s))
     for _ in range(max_iterations):
         f, Phi = evaluate(s)
-        if _largest_magnitude(f) <= f_tolerance:
+        residual = _largest_magnitude(f)
+        if residual <= f_tolerance and residual <= tolerance * (1.0 + _largest_magnitude(s)):
             return s, Phi
         step = correct(s, f, Phi)
         if not all(map(math.isfinite, s.tolist())):
@@ -255,14 +258,17 @@ class InitialState:
 
 
 def _numbers(name, values):
-    """``values`` as a float array, or an InputError naming InitialState's ``name`` (finiteness is checked later,
-    by :func:`initial_state_arrays`, against the system's size too)."""
-    if isinstance(values, (str, bytes)):
+    """``values`` as a flat float array, or an InputError naming InitialState's ``name`` (finiteness and size are
+    checked later, by :func:`initial_state_arrays`, against the system)."""
+    if values is None or isinstance(values, (str, bytes)):
         raise InputError(f"InitialState: {name} must be numbers, got {shown(values)}")
     try:
-        return np.asarray(values, dtype=float)
+        array = np.asarray(values, dtype=float)
     except (TypeError, ValueError, OverflowError):
         raise InputError(f"InitialState: {name} must be numbers, got {shown(values)}") from None
+    if array.ndim != 1:
+        raise InputError(f"InitialState: {name} must be a flat list of numbers, got {shown(values)}")
+    return array
 
 
 def initial_state_arrays(initial_state, n):
@@ -305,6 +311,10 @@ def consistent_initial_state(system, q0, qd0, z_guess):
         Where Phi_z is singular on Newton's way from the guess, or at the solution (a dead
         position of q, where q' does not fix z').
     """
+    from .model import System
+
+    if not isinstance(system, System):
+        raise InputError(f"system: expected a System, got {type(system).__name__}")
     q0 = finite_array("q0", q0, size=system.f)
     qd0 = finite_array("qd0", qd0, size=system.f)
     z_guess = finite_array("z_guess", z_guess, size=system.r)

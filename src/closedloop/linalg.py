@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from .errors import SingularConfigurationError, at_time
+from .errors import InputError, SingularConfigurationError, at_time
 from .loading import first_use
 from .validation import one_of
 
@@ -284,6 +284,13 @@ def null_space_basis(Phi, basis="svd", t=None):
         the constraints are dependent, assembly branches meet there, and no
         choice of coordinates passes such a bifurcation.
     """
+    try:
+        Phi = np.asarray(Phi, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"Phi: expected a matrix of numbers (r x n), got {type(Phi).__name__}") from None
+    if Phi.ndim != 2 or Phi.shape[0] >= Phi.shape[1] or not np.all(np.isfinite(Phi)):
+        raise InputError(f"Phi: expected a finite matrix with fewer rows than columns (r x n, r < n), got "
+                         f"{'shape ' + str(Phi.shape) if Phi.ndim != 2 or Phi.shape[0] >= Phi.shape[1] else 'non-finite entries'}")
     r, n = Phi.shape
     _, singular_values, Vt = np.linalg.svd(Phi)
     if singular_values[-1] < RANK_LIMIT * singular_values[0]:

@@ -280,7 +280,6 @@ def _symbolic_equations(model):
     return M, p1, f, Phi, gamma, T, Pi
 
 
-@lru_cache(maxsize=None)
 def derive(model: MultibodyModel) -> DerivedModel:
     """Derive Lagrange's equations with multipliers (5)-(11); their numeric functions come with them.
 
@@ -297,10 +296,21 @@ def derive(model: MultibodyModel) -> DerivedModel:
     -------
     DerivedModel
     """
+    if not isinstance(model, MultibodyModel):
+        raise InputError(f"model: expected a MultibodyModel, got {type(model).__name__}")
+    return _derive(model)
+
+
+@lru_cache(maxsize=None)
+def _derive(model):
+    """:func:`derive`, once per model."""
     M, p1, f, Phi, gamma, _, _ = _symbolic_equations(model)
     functions = model_functions(model)
     return DerivedModel(model, M, p1, f, Phi, gamma, functions.dynamics, functions.constraint_functions,
                         functions.energies)
+
+
+derive.cache_info, derive.cache_clear = _derive.cache_info, _derive.cache_clear     # one cache, as before
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,9 @@ from ..formulations import Formulation
 from ..kinematics import initial_state_arrays
 from ..linalg import null_space_basis
 from ..methods import IMPLICIT_METHODS, SOLVER_METHODS
-from ..validation import finite_array, finite_number, is_real, output_times, positive_integer, shown, shown_array
+from ..model import System
+from ..validation import (finite_array, finite_number, flag, instance_of, is_real, output_times, positive_integer,
+                          shown, shown_array)
 from . import dop853
 from .switching import MIN_PROGRESS, no_progress
 
@@ -311,8 +313,11 @@ def run_options(system, initial_state, formulation, *, t_start, t_end, method, r
                 stop_when, sticking_resolution, max_segments, switching, max_nfev, max_steps, work, branch_limit,
                 solver_options):
     """Check every argument of :func:`simulate` (raising InputError) and return them as RunOptions."""
+    instance_of("system", system, System)
     t_start, t_end, rtol, atol, sticking_resolution, branch_limit = _check_times(
         t_start, t_end, rtol, atol, sticking_resolution, branch_limit)
+    multipliers, work = flag("multipliers", multipliers), flag("work", work)
+    max_segments = positive_integer("max_segments", max_segments)
     _check_method(formulation, method, switching, solver_options)
     solver_options = _check_steps(solver_options)
     max_nfev = None if max_nfev is None else positive_integer("max_nfev", max_nfev)
