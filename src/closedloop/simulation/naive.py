@@ -96,7 +96,7 @@ def _steps(run, solver, changes, times, states):
             return (f"{options.method_name} failed at t = {solver.t:.6g} s with naive switching "
                     f"(step size {solver.step_size:.3g} s); use switching='events'")
         run.record_step(solver.t_old, solver.t)
-        run.path.record(solver.t, solver.y)
+        run.path.record(solver.t, solver.y.copy())
         if t_eval is None:
             times.append(solver.t)
             states.append(solver.y.copy())

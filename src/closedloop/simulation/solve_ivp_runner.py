@@ -72,7 +72,7 @@ def counting_solver(run, method):
             if success and self.t != t_before:
                 run.record_step(t_before, self.t)
                 run.t_reached = self.t
-                record(self.t, self.y)
+                record(self.t, self.y.copy())
                 if len(run.step_sizes) >= max_steps and self.t != self.t_bound:
                     run.steps_exhausted = True
                     return False, f"max_steps = {max_steps} reached"

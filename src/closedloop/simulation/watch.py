@@ -56,7 +56,6 @@ the first, where the branch guard objects within a step of it):
 
 from __future__ import annotations
 
-import collections
 import math
 
 import numpy as np
@@ -167,8 +166,8 @@ class PathWatch:
         # the current segment's step ends as recorded, the first `moved` of them moved out already
         self.raw_times, self.raw_states, self.moved = [], [], 0
         self.unpack = None
-        self.recent = collections.deque(maxlen=CRAWL_STEPS)      # the segment's last step sizes, and their sum
-        self.advance = 0.0
+        self.waiting, self.due = 0, FIRST_BATCH                  # step ends not checked; a batch's size
+        self.crawl_checked = 0                                   # step ends of the segment checked for crawling
 
     # -- what the runners call ------------------------------------------------------
     def start(self, t0, y0, s0, mode):
@@ -177,46 +176,46 @@ class PathWatch:
         self.unpack = self.formulation.unpacker(self.system)
         self.unpack.seed(s0)
         self.raw_times, self.raw_states, self.moved = [t0], [np.array(y0, dtype=float)], 0
-        self.recent.clear()
-        self.advance = 0.0
+        self.crawl_checked = 0
+        self.waiting = len(self.times) - self.context           # moved out of earlier segments, not checked
 
     def record(self, t, y):
-        """One accepted step end; checks a batch when one is due (and raises at a failure)."""
-        step = t - self.raw_times[-1]
-        self.raw_times.append(t)
-        self.raw_states.append(np.array(y, dtype=float))
-        if len(self.recent) == CRAWL_STEPS:
-            self.advance -= self.recent[0]
-        self.recent.append(step)
-        self.advance += step
-        if len(self.recent) == CRAWL_STEPS and self.advance < self.crawl_limit and sum(self.recent) < self.crawl_limit:
-            self._crawling(t, y)
-        waiting = len(self.times) - self.context + len(self.raw_times) - self.moved - 1
-        if waiting >= max(FIRST_BATCH, BATCH_GROWTH * self.checked):
-            self._move(len(self.raw_times) - 1)    # the last one may have overshot a switch: kept back
+        """One accepted step end (an array the caller will not change again); checks a batch when one is due
+        (and raises at a failure)."""
+        raw = self.raw_times
+        raw.append(t)
+        self.raw_states.append(y)
+        self.waiting += 1
+        if self.waiting >= self.due:
+            self._crawl_check()
+            self._move(len(raw) - 1)                # the last one may have overshot a switch: kept back
             self._check(more=True)
 
     def end(self, t_stop=None, y_stop=None):
         """The segment ended at t_end, or at ``(t_stop, y_stop)`` (a switch, stop_when): step ends past it go.
 
         Its step ends are checked with the next batch (or by :meth:`flush`, when the run ends here)."""
+        self._crawl_check()
         if t_stop is not None:
             keep = self.moved + sum(1 for t in self.raw_times[self.moved:] if t < t_stop)
             del self.raw_times[keep:], self.raw_states[keep:]
             self.raw_times.append(t_stop)
             self.raw_states.append(np.array(y_stop, dtype=float))
         self._move(len(self.raw_times))
-        if len(self.times) - self.context >= max(FIRST_BATCH, BATCH_GROWTH * self.checked):
+        self.waiting = len(self.times) - self.context
+        if self.waiting >= self.due:
             self._check(more=True)
 
     def failed(self, failed_at=None):
         """The segment failed at ``failed_at`` (after its last step end): check every step end recorded.
 
         Raises the earliest failure found along them (a change point passed before is the real
-        cause of a failure after it); returns when there is none, or when a check has raised already.
+        cause of a failure after it, and so are steps that crawled); returns when there is none, or
+        when a check has raised already.
         """
         if self.error is not None:
             return
+        self._crawl_check()
         if self.unpack is not None:
             try:
                 self._move(len(self.raw_times))
@@ -311,6 +310,8 @@ class PathWatch:
         self.run.partition_singularities.extend(t for t in crossings if not self.run.partition_singularities
                                                 or t != self.run.partition_singularities[-1])
         self.checked += new
+        self.waiting = len(self.raw_times) - self.moved - 1     # recorded, not moved out (the one kept back)
+        self.due = max(FIRST_BATCH, BATCH_GROWTH * self.checked)
         keep = min(2, len(self.times))            # context for the next batch: a minimum between batches
         for stored in (self.times, self.s, self.sd, self.y, self.segment_of):
             del stored[:-keep]
@@ -466,7 +467,22 @@ class PathWatch:
         return None
 
     # -- crawling ------------------------------------------------------------------------------
-    def _crawling(self, t, y):
+    def _crawl_check(self):
+        """Raise at the first window of CRAWL_STEPS steps of the segment, among those not checked yet, that
+        advanced less than the crawl limit together."""
+        times = self.raw_times
+        if len(times) <= CRAWL_STEPS or self.crawl_limit <= 0.0:
+            return
+        first = max(self.crawl_checked, CRAWL_STEPS)
+        self.crawl_checked = len(times)
+        ends = np.asarray(times[first - CRAWL_STEPS:])
+        advance = ends[CRAWL_STEPS:] - ends[:-CRAWL_STEPS]         # over the CRAWL_STEPS steps ending at each
+        slow = np.flatnonzero(advance < self.crawl_limit)
+        if slow.size:
+            k = first + int(slow[0])
+            self._crawling(times[k], self.raw_states[k], times[k] - times[k - CRAWL_STEPS], times[k] - times[k - 1])
+
+    def _crawling(self, t, y, advance, last):
         """Raise the IntegrationError of a run whose last CRAWL_STEPS steps crawl (see the module's notes)."""
         options, run = self.options, self.run
         why = None
@@ -488,11 +504,11 @@ class PathWatch:
             why = ("no longer step meets the tolerances there, so the motion or a force is most likely singular there: "
                    f"end the run before t = {t:.6g} s (an implicit method or looser tolerances do not carry a run "
                    "through a singularity)")
-        error = kind(
+        self.error = kind(
             f"{options.method_name} crawls at t = {t:.6g} s: its last {CRAWL_STEPS} steps advanced "
-            f"{sum(self.recent):.3g} s in all (the last {self.recent[-1]:.3g} s), less than {CRAWL_FRACTION:g} of the "
+            f"{advance:.3g} s in all (the last {last:.3g} s), less than {CRAWL_FRACTION:g} of the "
             f"run's {options.t_end - options.t_start:g} s; {why}")
-        raise error
+        raise self.error
 
 
 #: Accelerations at a step end this large (or not finite) are not used for the quintic interpolant.
