@@ -158,18 +158,17 @@ def test_max_segments(slider_crank, case2):
 
 # -- integrator failures ----------------------------------------------------------------------------
 
-def test_steps_crawl_at_a_singular_force():
-    """The pendulum driven by |1 - t|^-1.5 (tests/test_integrators.py): no method passes t = 1 s, and the run
-    stops where its steps crawl, long before they underflow."""
+def test_step_size_underflow_at_a_singular_force():
+    """The pendulum driven by |1 - t|^-1.5 (tests/test_integrators.py): no method passes t = 1 s."""
     system = System(pendulum_model(), {"m": 2.0, "l": 1.5, "g": 9.81},
                     force=lambda t, s, sd: np.array([abs(1.0 - t) ** -1.5, 0.0, 0.0]))
     state = consistent_initial_state(system, [0.3], [0.0], [0.4, -1.4])
     with pytest.raises(IntegrationError) as error:
         simulate(system, state, 2.0, formulation=Baumgarte(), method="RK45")
-    assert str(error.value).startswith("RK45 crawls at t = 1 s: its last 100 steps advanced ")   # not the end of float64
     assert str(error.value).endswith(
-        "; no longer step meets the tolerances there, so the motion or a force is most likely singular there: end "
-        "the run before t = 1 s (an implicit method or looser tolerances do not carry a run through a singularity)")
+        "; no step that float64 resolves at this t meets the tolerances, so the motion or a force is most "
+        "likely singular there: end the run before t = 1 s (an implicit method or looser tolerances do not "
+        "carry a run through a singularity)")
     t_end = stop_time(error.value) - 0.01
     result = passes(simulate(system, state, t_end, formulation=Baumgarte(), method="RK45"), t_end)
     # m l^2 theta'' = -m g l sin(theta) + |1 - t|^-1.5
