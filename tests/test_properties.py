@@ -602,6 +602,7 @@ Z_VALUES = st.one_of(st.lists(st.floats(-3, 3), min_size=2, max_size=2), st.list
 @example(q0=[math.pi / 2], qd0=[1.0], z_guess=[1.5, 0.0])        # the pendulum level: Phi_z singular there
 @example(q0=[0.0], qd0=[0.0], z_guess=[0.0, 4503599627370495.0])  # found here: Newton stopped at |f| = 0.5, its
 #                                                                     tolerance taken relative to the guess
+@example(q0=[0.0], qd0=[1.1984620899082105e+308], z_guess=[0.0, 0.0])   # found here: R q' overflowed, a warning
 def test_consistent_initial_state(q0, qd0, z_guess):
     """Any q0, q0', guess of z give a consistent state, or one line naming the parameter (InputError) or saying
     where the constraints can not be solved (ConvergenceError, SingularConfigurationError)."""

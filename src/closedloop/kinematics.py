@@ -310,6 +310,9 @@ def consistent_initial_state(system, q0, qd0, z_guess):
     SingularConfigurationError
         Where Phi_z is singular on Newton's way from the guess, or at the solution (a dead
         position of q, where q' does not fix z').
+    InputError
+        Where an argument is of the wrong kind, size or not finite, or where the velocities
+        R q'(0) overflow float64.
     """
     from .model import System
 
@@ -320,7 +323,8 @@ def consistent_initial_state(system, q0, qd0, z_guess):
     z_guess = finite_array("z_guess", z_guess, size=system.r)
     s = solve_dependent(system, q0, z_guess)       # its own error names a singular guess
     try:
-        return InitialState(s, dependent_velocities(system, s, qd0))
+        with np.errstate(over="ignore", invalid="ignore"):
+            sd = dependent_velocities(system, s, qd0)
     except SingularConfigurationError:
         dependent = dependent_constraints_error(system.jacobian(s), s)
         if dependent is not None:
@@ -330,3 +334,7 @@ def consistent_initial_state(system, q0, qd0, z_guess):
             "q'(0) does not fix z'(0) through (9); start away from it, or give InitialState(s0, s0') with "
             "Phi_s s0' = 0 yourself (any formulation that needs no partition, NullSpace, can run from it)"
         ) from None
+    if not np.all(np.isfinite(sd)):
+        raise InputError(f"qd0: the velocities s' = R q'(0) of (20) overflow float64 at s = {s.tolist()}, "
+                         f"got qd0 = {qd0.tolist()}; give smaller velocities")
+    return InitialState(s, sd)
