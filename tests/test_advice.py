@@ -7,6 +7,7 @@ warning of SimulationResult.warnings, and, where there is one, a number that agr
 """
 
 import dataclasses
+import json
 import math
 import re
 
@@ -185,16 +186,17 @@ def fast_reference(slider_crank):
     return simulate(slider_crank, state, 0.1, formulation=Minimal(), t_eval=[0.1], **TIGHT).coordinate("phi")[-1]
 
 
-@pytest.mark.parametrize("options", [dict(rtol=1e-6, atol=1e-6), dict(max_step=1e-3)], ids=["tighter", "max_step"])
-def test_switch_not_located(slider_crank, fast_reference, options):
+@pytest.mark.parametrize("options", [dict(), dict(rtol=1e-6, atol=1e-6), dict(max_step=1e-3)],
+                         ids=["as it was", "tighter", "max_step"])
+def test_switch_located_where_it_was_not(slider_crank, fast_reference, options):
+    """Minimal at 300 rad/s and rtol 1e-3 said it "could not locate a switch ... try tighter tolerances or a
+    max_step": the switching function had two values at one state, its z solved on another turn of psi at the
+    step's end (Newton from a prediction 2 rad of q away). z is now followed by continuation there, so the run
+    answers, to the accuracy of its tolerance; the old advice gives the reference to 1e-3."""
     state = initial_state(slider_crank, *FAST)
     settings = dict(formulation=Minimal(), method="RK45", rtol=1e-3, atol=1e-3)
-    with pytest.raises(IntegrationError) as error:
-        simulate(slider_crank, state, 0.1, **settings)
-    assert "could not locate a switch" in str(error.value)
-    assert str(error.value).endswith("; try tighter tolerances or a max_step")
     result = passes(simulate(slider_crank, state, 0.1, **{**settings, **options}), 0.1)
-    assert result.coordinate("phi")[-1] == pytest.approx(fast_reference, abs=1e-3)
+    assert result.coordinate("phi")[-1] == pytest.approx(fast_reference, abs=0.3 if not options else 1e-3)
 
 
 def _regularised_gas_system(base, eps=1e-3):
@@ -208,44 +210,55 @@ def _regularised_gas_system(base, eps=1e-3):
     return SliderCrankSystem(base.parameters, base.reading, values, force)
 
 
-@pytest.mark.parametrize("follow", ["tighten rtol and atol", "regularise the force"])
-def test_chattering_on_a_switch(slider_crank, follow):
-    """Projected at rtol 1e-2 and 300 rad/s stalls on x_C = 5; looser tolerances stall as well."""
+def test_a_stall_on_a_switch_is_decided_by_the_branches_own_motions(slider_crank):
+    """Projected at rtol 1e-2 and 300 rad/s stalled 51 times at t = 0.0325 s on x_C = 5 and said "chatters ...;
+    tighten rtol and atol, or regularise the force". The segment after each decision stopped at once: its event,
+    exactly zero at the segment's start, was located there. It counts as on the branch chosen now (and a stall
+    would be decided by the branches' own motions): the run goes on without a stop that makes no progress, and
+    its error is that of its tolerance (rtol 3e-2 and 1e-3 are off by 1.2 and 0.26 rad at 0.25 s too)."""
     settings = dict(formulation=Projected(), method="DOP853", rtol=1e-2, atol=1e-2)
     state = initial_state(slider_crank, *FAST)
     decisions = []
     original = Run.decide
 
-    def counted(self, t, *args):
-        decisions.append(t)
-        return original(self, t, *args)
+    def counted(self, t, *args, **kwargs):
+        decisions.append((t, kwargs.get("stalled", False)))
+        return original(self, t, *args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(Run, "decide", counted)
+        result = passes(simulate(slider_crank, state, 0.25, **settings), 0.25)
+    times = [t for t, _ in decisions]
+    assert len(times) > 20 and np.all(np.diff(times) > 1e-9)            # every stop at a switch makes progress
+    reference = simulate(slider_crank, state, 0.25, formulation=Minimal(), t_eval=[0.25], **TIGHT)
+    assert abs(result.coordinate("phi")[-1] - reference.coordinate("phi")[-1]) < 1.5
+
+
+def test_chattering_on_a_switch_names_the_time_and_the_switch(slider_crank, case2):
+    """Where every decision, the probe's too, is followed by a stop without progress, the run stops after
+    MAX_STALLS of them (here the segment is made to stall)."""
+    from closedloop.simulation import solve_ivp_runner
+    from closedloop.simulation.run import SegmentEnd
+
+    def stall(run, t0, s0, sd0, mode):
+        return SegmentEnd(t0, s0, sd0, 1)
 
     with pytest.MonkeyPatch.context() as patch, pytest.raises(IntegrationError) as error:
-        patch.setattr(Run, "decide", counted)
-        simulate(slider_crank, state, 0.25, **settings)
-    assert "chatters on switch 'x_C = 5'" in str(error.value)
-    assert f"more than {MAX_STALLS} stops in a row" in str(error.value)
-    # the decisions at the time it chatters: its first arrival there, then one after each of MAX_STALLS
-    # stops without progress; the next stop raised
-    stalled = [t for t in decisions if abs(t - decisions[-1]) <= 1e-9]
-    assert len(stalled) == MAX_STALLS + 1
-    assert str(error.value).endswith("; tighten rtol and atol, or regularise the force")
-    if follow == "tighten rtol and atol":
-        result = passes(simulate(slider_crank, state, 0.25, **{**settings, "rtol": 1e-6, "atol": 1e-6}), 0.25)
-        reference = simulate(slider_crank, state, 0.25, formulation=Minimal(), t_eval=[0.25], **TIGHT)
-        assert result.coordinate("phi")[-1] == pytest.approx(reference.coordinate("phi")[-1], abs=1e-3)
-    else:
-        smooth = _regularised_gas_system(slider_crank)
-        passes(simulate(smooth, initial_state(smooth, *FAST), 0.25, **settings), 0.25)
+        patch.setattr(solve_ivp_runner, "segment", stall)
+        simulate(slider_crank, case2, 0.5)
+    assert str(error.value) == (f"the state chatters on switch 'x_C = 5' at t = 0 s: more than {MAX_STALLS} stops in "
+                                "a row without progress; tighten rtol and atol, or regularise the force")
 
 
-def test_projection_that_does_not_converge():
-    """Projected at rtol 0.3: the step leaves the manifold farther than Newton's projection reaches."""
+def test_projection_at_a_tolerance_too_loose():
+    """Projected at rtol 0.3: the steps leave the manifold so far that the motion runs away, its accelerations
+    overflow, and the steps crawl."""
     system = slider_crank_system(gas=False)
     state = initial_state(system, math.pi, 50.0)
-    with pytest.raises(ConvergenceError) as error:
+    with pytest.raises(IntegrationError) as error:
         simulate(system, state, 1.0, formulation=Projected(), method="DOP853", rtol=0.3, atol=0.3)
-    assert str(error.value).endswith("the integrator left the constraint manifold too far; tighten rtol and atol")
+    assert str(error.value).startswith("DOP853 crawls at t = ")
+    assert str(error.value).endswith("the motion ran away at rtol = 0.3, atol = 0.3; tighten rtol and atol")
     result = passes(simulate(system, state, 1.0, formulation=Projected(), method="DOP853", rtol=1e-6, atol=1e-6,
                              t_eval=[1.0]), 1.0)
     reference = simulate(system, state, 1.0, formulation=Minimal(), t_eval=[1.0], **TIGHT)
@@ -323,8 +336,7 @@ def test_branch_guard(rocking, rocking_dead_position):
     assert "Kantorovich number" in str(error.value)
     condition = float(re.search(r"cond\(Phi_s\) = ([0-9.e+]+)", str(error.value)).group(1))
     assert condition < 10 and "loses rank" not in str(error.value)      # drift at a well-conditioned Phi_s
-    assert str(error.value).endswith("; tighten rtol and atol (at a bifurcation itself no formulation can choose "
-                                     "the branch)")
+    assert str(error.value).endswith("so the run may have changed branch; tighten rtol and atol")
     result = passes(simulate(rocking, state, 4.0, formulation=Augmented(), method="RK45", rtol=1e-9, atol=1e-9),
                     4.0)
     assert result.partition_singularities[0] == pytest.approx(rocking_dead_position, abs=1e-6)
@@ -396,47 +408,45 @@ def test_minimal_newton_fails_at_a_dead_position(rocking, rocking_dead_position)
     assert result.partition_singularities[0] == pytest.approx(rocking_dead_position, abs=1e-4)
 
 
-BRANCH_ADVICE = ("q alone can not pass it: use the NullSpace formulation (near a bifurcation, also tighten rtol "
-                 "and atol)")
-
-
 def test_minimal_leaves_its_branch_at_a_dead_position(rocking, rocking_dead_position):
     state = initial_state(rocking, math.pi, 1.0)
     with pytest.raises(SingularConfigurationError) as error:
         simulate(rocking, state, 1.5, formulation=Minimal(), **TIGHT)
-    assert str(error.value).endswith(BRANCH_ADVICE)
+    assert str(error.value).endswith("so the path met a dead position of q (Phi_z nearly singular), which q alone "
+                                     "can not pass: use the NullSpace formulation")
     result = passes(simulate(rocking, state, 1.5, formulation=NullSpace(), **TIGHT), 1.5)
     assert result.partition_singularities[0] == pytest.approx(rocking_dead_position, abs=1e-8)
 
 
-def test_minimal_leaves_its_branch_near_a_bifurcation():
-    """l2/l1 = 1 + 1e-8: the two branches are 3e-4 rad apart at phi = 3 pi / 2."""
+@pytest.mark.parametrize("follow", [dict(max_step=1e-3), dict(rtol=1e-9, atol=1e-9)], ids=["max_step", "tighter"])
+def test_minimal_near_a_bifurcation(follow):
+    """l2/l1 = 1 + 1e-8: the two branches are 3e-4 rad apart at phi = 3 pi / 2. At rtol 1e-3 a trial stage of q
+    2.55 rad away landed on the other branch ("a dead position of q, or ...": there is none); a short enough
+    max_step keeps z on its branch, and so does a tight tolerance now (z is followed in up to 4096 pieces)."""
     system = slider_crank_system(SliderCrankParameters(l2=2.0 * (1 + 1e-8), a2=1.0), torque=False, gas=False)
     state = initial_state(system, math.pi, 3.0)
     loose = dict(method="DOP853", rtol=1e-3, atol=1e-3)
     with pytest.raises(SingularConfigurationError) as error:
         simulate(system, state, 1.0, formulation=Minimal(), **loose)
-    assert str(error.value).endswith(BRANCH_ADVICE)
-    with pytest.raises(SingularConfigurationError):     # NullSpace alone is not enough here: hence "also"
-        simulate(system, state, 1.0, formulation=NullSpace(), **loose)
-    result = passes(simulate(system, state, 1.0, formulation=NullSpace(), method="DOP853", rtol=1e-9, atol=1e-9),
-                    1.0)
+    assert str(error.value).endswith("landed on another branch; give a max_step, or use a formulation that does "
+                                     "not solve for z (Orthogonal, NullSpace)")
+    assert "dead position" not in str(error.value)
+    result = passes(simulate(system, state, 1.0, formulation=Minimal(), **{**loose, **follow}), 1.0)
     assert np.max(np.cos(result.coordinate("psi"))) < 0          # it stayed on the paper's branch
+    energy = system.energy(result.s, result.sd)                  # no force: T + Pi kept, to the tolerance asked
+    assert np.ptp(energy) < (1e-2 if "max_step" in follow else 1e-8) * np.max(np.abs(energy))
 
 
-@pytest.mark.parametrize("formulation, options", [(Minimal(), dict(max_step=1e-3)), (Orthogonal(), {}),
-                                                  (NullSpace(), {})], ids=["max_step", "Orthogonal", "NullSpace"])
-def test_minimal_too_fast_for_the_step(slider_crank, formulation, options):
-    """phi0' = 200 rad/s with the gas force: a trial stage carries q too far for Newton's continuation."""
+def test_minimal_follows_a_fast_crank(slider_crank):
+    """phi0' = 200 rad/s with the gas force: a trial stage carried q too far for Newton's continuation in 64
+    pieces, and the run stopped ("too fast for the step; give a max_step ..."). z is now followed in up to 4096
+    pieces: the run answers, within 100 times its tolerance of a tight run of another formulation."""
     state = initial_state(slider_crank, math.pi, 200.0)
-    settings = dict(method="DOP853", rtol=1e-5, atol=1e-5)
-    with pytest.raises(SingularConfigurationError) as error:
-        simulate(slider_crank, state, 0.1, formulation=Minimal(), **settings)
-    assert str(error.value).endswith("so the motion is too fast for the step; give a max_step, or use a "
-                                     "formulation that does not solve for z (Orthogonal, NullSpace)")
-    result = passes(simulate(slider_crank, state, 0.1, formulation=formulation, **settings, **options), 0.1)
+    result = passes(simulate(slider_crank, state, 0.1, formulation=Minimal(), method="DOP853", rtol=1e-5,
+                             atol=1e-5), 0.1)
     reference = simulate(slider_crank, state, 0.1, formulation=Baumgarte(), t_eval=[0.1], **TIGHT)
-    assert result.coordinate("phi")[-1] == pytest.approx(reference.coordinate("phi")[-1], abs=1e-3)
+    phi = reference.coordinate("phi")[-1]
+    assert result.coordinate("phi")[-1] == pytest.approx(phi, abs=100 * (1e-5 + 1e-5 * abs(phi)))
 
 
 @pytest.mark.parametrize("refused", [Orthogonal(), Minimal()], ids=["orthogonal", "minimal"])
@@ -489,32 +499,6 @@ def test_initial_state_from_a_singular_guess():
     other = consistent_initial_state(rocker, [state.s[2]], [state.sd[2]], [1.0, 0.5])
     assert np.allclose(other.s, state.s, atol=1e-12) and np.allclose(other.sd, state.sd, atol=1e-12)
     passes(simulate(rocker, other, 1.0, **TIGHT), 1.0)
-
-
-# -- the compiled DOP853 and the branch guard --------------------------------------------------------
-
-@pytest.mark.parametrize("formulation", [Orthogonal(), ClosedForm()], ids=["orthogonal", "closed-form"])
-@pytest.mark.parametrize("follow", ["this formulation", "NullSpace"])
-def test_compiled_dop853_across_det_phi_z(rocking, rocking_dead_position, formulation, follow):
-    state = initial_state(rocking, math.pi, 1.0)
-    with pytest.raises(SingularConfigurationError) as error:
-        simulate(rocking, state, 1.5, formulation=formulation, method="ode.dop853", rtol=1e-10, atol=1e-10)
-    name = type(formulation).__name__
-    assert str(error.value).endswith(f"; use a solve_ivp method, which has the branch guard, with {name} or with "
-                                     "the NullSpace formulation")
-    with pytest.raises(InputError, match="no dense output for the branch guard"):   # hence "a solve_ivp method"
-        simulate(rocking, state, 1.5, formulation=NullSpace(), method="ode.dop853")
-    chosen = formulation if follow == "this formulation" else NullSpace()
-    result = passes(simulate(rocking, state, 1.5, formulation=chosen, **TIGHT), 1.5)
-    assert result.partition_singularities == [pytest.approx(rocking_dead_position, abs=1e-8)]
-
-
-@pytest.mark.parametrize("formulation", [Augmented(), Baumgarte(), NullSpace()], ids=lambda f: f.name)
-def test_compiled_dop853_refuses_formulations_without_a_partition_guard(slider_crank, case2, formulation):
-    with pytest.raises(InputError) as error:
-        simulate(slider_crank, case2, 0.5, formulation=formulation, method="ode.dop853")
-    assert str(error.value).endswith(f"; use a solve_ivp method with {type(formulation).__name__}")
-    passes(simulate(slider_crank, case2, 0.5, formulation=formulation, method="DOP853"), 0.5)
 
 
 # -- results that are not answers -----------------------------------------------------------------
@@ -633,7 +617,7 @@ def test_every_method_offered_runs(slider_crank, case2, formulation, switching):
     choices = _choices(error.value)
     assert str(error.value).startswith("method: ")
     assert set(choices) <= set(SOLVER_METHODS)
-    assert ("ode.dop853" in choices) == (formulation.guards_partition and switching == "events")
+    assert ("ode.dop853" in choices) == (formulation.name != "projected" and switching == "events")
     for method in choices:
         passes(simulate(slider_crank, case2, 0.1, formulation=formulation, method=method, switching=switching), 0.1)
 
@@ -740,3 +724,168 @@ def test_command_line_figure_names(command, tmp_path, capsys):
                                                f"file name ending in .png, got '{tmp_path / 'figure.pdf'}'")
     assert main([*command, str(tmp_path / "figure.png")]) == 0
     assert (tmp_path / "figure.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+# -- the messages of issue 34, each provoked and its advice followed ------------------------------------------
+
+OVER_THE_TOP = (np.pi / 2, 2.0)        # the 3 x 1 parallelogram's crank turns over: theta1 = pi at 0.517 s
+
+
+@pytest.mark.parametrize("rtol", [1e-3, 1e-6])
+@pytest.mark.parametrize("follow", ["end the run before it", "change the geometry"])
+def test_the_compiled_dop853_at_a_change_point(rtol, follow):
+    """ode.dop853 said "det Phi_z changed sign ... use a solve_ivp method, which has the branch guard, with
+    ClosedForm or with the NullSpace formulation", which fails there too (rtol 1e-3); at 1e-6 its steps of 0.18
+    s passed the first fold unseen and the error named the second, at t = 1.02 s. Both name the first, and
+    the change point's advice works."""
+    system = System(four_bar_model(), PARALLELOGRAM)
+    start = consistent_initial_state(system, [OVER_THE_TOP[0]], [OVER_THE_TOP[1]], [0.0, OVER_THE_TOP[0]])
+    settings = dict(formulation=ClosedForm(5, 5), method="ode.dop853", rtol=rtol, atol=rtol)
+    with pytest.raises(SingularConfigurationError) as error:
+        simulate(system, start, 2.0, **settings)
+    assert str(error.value).startswith("the path reaches a change point at t = 0.517")
+    assert str(error.value).endswith("no formulation of this library passes a change point: end the run before "
+                                     "it, or change the geometry")
+    if follow == "end the run before it":
+        passes(simulate(system, start, stop_time(error.value) - 0.01, **settings), stop_time(error.value) - 0.01)
+    else:
+        other = System(four_bar_model(), NOT_A_PARALLELOGRAM)
+        state = consistent_initial_state(other, [OVER_THE_TOP[0]], [OVER_THE_TOP[1]], [0.0, OVER_THE_TOP[0]])
+        result = passes(simulate(other, state, 2.0, **settings), 2.0)
+        energy = other.energy(result.s, result.sd)
+        assert np.ptp(energy) < 100 * rtol * np.max(np.abs(energy))
+
+
+NEAR = SliderCrankParameters(l2=1.0001 * 2.0)     # Table 1's crank, a rod 0.01 % longer than it: no change point
+
+
+@pytest.mark.parametrize("follow", ["tighten rtol and atol", "Baumgarte"])
+def test_the_drift_near_a_bifurcation_is_not_called_a_change_point(follow):
+    """Augmented (and ClosedForm(0, 0)) at rtol 1e-6 stopped with "change point ... two assembly branches meet
+    ... no formulation of this library passes a change point", at cond(Phi_s) = 183: the branches only come
+    near each other, and the drift reached their distance. The message says so, and its advice works."""
+    system = slider_crank_system(NEAR)
+    state = initial_state(system, math.pi / 2, 1.0)
+    with pytest.raises(SingularConfigurationError) as error:
+        simulate(system, state, 8.0, formulation=Augmented(), method="RK45", rtol=1e-6, atol=1e-6)
+    message = str(error.value)
+    assert message.startswith("the path comes as near another assembly branch as its own at t = 6.8")
+    assert "they do not meet, Phi_s keeps its rank on the constraints nearby" in message
+    assert "change point" not in message
+    gap = float(re.search(r"within a distance of order ([0-9.e-]+) of each other", message).group(1))
+    drift = float(re.search(r"drift off the constraints, ([0-9.e-]+),", message).group(1))
+    assert 2 * drift > 0.5 * gap                                    # the Kantorovich number above 1/2, in words
+    assert message.endswith("; tighten rtol and atol, so that the drift stays below that distance")
+    options = (dict(formulation=Augmented(), rtol=1e-9, atol=1e-9) if follow == "tighten rtol and atol"
+               else dict(formulation=Baumgarte(5, 5), rtol=1e-6, atol=1e-6))
+    result = passes(simulate(system, state, 8.0, method="RK45", **options), 8.0)
+    assert np.max(np.cos(result.coordinate("psi"))) < 0                # on the paper's branch throughout
+
+
+def test_the_command_line_says_why_a_formulation_does_not_take_a_method(capsys):
+    """--formulation projected --method Radau said "method: unknown 'Radau'; choose one of RK45, RK23, DOP853":
+    Radau is a method, which Projected does not take (it resets the state of a Runge-Kutta step)."""
+    assert main(["simulate", "--case", "2", "--t-end", "0.2", "--formulation", "projected", "--method", "Radau"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == ("closedloop: error: method: the projected formulation needs an explicit Runge-Kutta method of "
+                   "solve_ivp, whose state it resets after each step (RK23, RK45, DOP853), got 'Radau'")
+    for method in re.search(r"\(([^()]*)\), got", err).group(1).split(", "):
+        assert main(["simulate", "--case", "2", "--t-end", "0.2", "--formulation", "projected", "--method",
+                     method]) == 0, method
+    # --formulation baumgarte --method ode.dop853 said "unknown 'ode.dop853'": the compiled code now runs it
+    capsys.readouterr()
+    assert main(["simulate", "--case", "2", "--t-end", "0.2", "--formulation", "baumgarte", "--method",
+                 "ode.dop853", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["method"] == "ode.dop853"
+
+
+def test_a_basin_map_too_long_for_the_step_limit_advises_a_t_end_that_passes():
+    """basin --t-end 1e9 advised "give a step >= 1e+04 s", which the step check then refused: no step both
+    resolves the map and keeps within MAX_STEPS. The message now gives t_end bounds that pass both checks."""
+    from closedloop.studies.basin import DEFAULT_STEP, MAX_STEPS, _check_step, _check_time, _step_bound
+
+    system = slider_crank_system()
+    rates = np.linspace(0.0, 3.0, 4)
+    assert main(["basin", "--phi0", "0:2pi:4", "--dphi0", "0:3:4", "--t-end", "1e9"]) == 2
+    with pytest.raises(InputError) as error:
+        _check_time(1e9, DEFAULT_STEP, _step_bound(system, rates)[2])
+    message = str(error.value)
+    assert message.startswith(f"t_end: 1e+09 s would take more than {MAX_STEPS} steps")
+    numbers = re.search(r"give a t_end <= ([0-9.e+]+) s \(with this step of ([0-9.e+-]+) s\), or <= ([0-9.e+]+) s "
+                        r"with a step of ([0-9.e+-]+) s$", message).groups()
+    t_short, step, t_long, long_step = map(float, numbers)
+    for t_end, h in ((t_short, step), (t_long, long_step)):        # the checks the map makes before it runs
+        _check_time(t_end, h, _step_bound(system, rates)[2])
+        _check_step(system, h, rates)
+    assert t_short < t_long < 1e9
+
+
+@pytest.mark.parametrize("case", ["more constraints than coordinates", "velocities as text"])
+def test_a_model_says_what_is_wrong_with_it(case):
+    """MultibodyModel with three constraints on two coordinates said "need n - r = 2 - 3 = -1 independent
+    coordinates"; with velocities given as text, "unexpected symbols ['dx', 'dy']; declare them as parameters"."""
+    x, y, dx, dy, m, l, g = sp.symbols("x y dx dy m l g")
+    pieces = dict(coordinates=(x, y), velocities=(dx, dy), kinetic_energy=m * (dx**2 + dy**2) / 2,
+                  potential_energy=m * g * y, constraints=(x**2 + y**2 - l**2,), independent=(x,), parameters=(m, l, g))
+    if case == "more constraints than coordinates":
+        wrong = dict(pieces, constraints=(x**2 + y**2 - l**2, x - y, x + y), independent=())
+        expected = ("constraints: 3 constraints on 2 coordinates leave no degree of freedom; a closed loop has "
+                    "fewer constraints than coordinates (r < n)")
+    else:
+        wrong = dict(pieces, velocities=("dx", "dy"))
+        expected = "velocities: must be sympy Symbols (made with sympy.symbols), got 'dx' (str)"
+    with pytest.raises(InputError) as error:
+        MultibodyModel(**wrong)
+    assert str(error.value) == expected
+    system = System(MultibodyModel(**pieces), {"m": 1.0, "l": 1.0, "g": 9.81})     # the advice: a pendulum
+    state = consistent_initial_state(system, [0.6], [0.0], [-0.8])
+    result = passes(simulate(system, state, 1.0, method="DOP853", rtol=1e-10, atol=1e-10), 1.0)
+    theta = solve_ivp(lambda t, u: [u[1], -9.81 * math.sin(u[0])], (0.0, 1.0), [math.asin(0.6), 0.0],
+                      method="DOP853", rtol=1e-12, atol=1e-12).y[0, -1]
+    assert result.coordinate("x")[-1] == pytest.approx(math.sin(theta), abs=1e-7)
+
+
+def test_dependent_constraints_are_not_called_a_dead_position():
+    """Two constraints that are one (the second twice the first) said "Phi_z is singular ... (a kinematic
+    singularity); start from another guess of z or choose other independent coordinates": no guess and no
+    partition helps. Removing the repeated constraint, as advised, gives the pendulum."""
+    theta, x, y, dtheta, dx, dy, m, l, g = sp.symbols("theta x y dtheta dx dy m l g")
+    pieces = dict(coordinates=(theta, x, y), velocities=(dtheta, dx, dy), kinetic_energy=m * (dx**2 + dy**2) / 2,
+                  potential_energy=m * g * y, independent=(theta,), parameters=(m, l, g))
+    values = {"m": 2.0, "l": 1.5, "g": 9.81}
+    repeated = System(MultibodyModel(constraints=(x - l * sp.sin(theta), 2 * (x - l * sp.sin(theta))), **pieces),
+                      values)
+    with pytest.raises(SingularConfigurationError) as error:
+        consistent_initial_state(repeated, [0.3], [0.0], [0.4, -1.4])
+    message = str(error.value)
+    assert message.startswith("the constraints are not independent at s = ") and "dead position" not in message
+    assert "Phi_s has rank 1 < r = 2 there" in message
+    assert message.endswith("remove a constraint that repeats the others, or, at a change point of the mechanism, "
+                            "start away from it")
+    system = System(MultibodyModel(constraints=(x - l * sp.sin(theta), y + l * sp.cos(theta)), **pieces), values)
+    passes(simulate(system, consistent_initial_state(system, [0.3], [0.0], [0.4, -1.4]), 0.5), 0.5)
+
+
+@pytest.mark.parametrize("method", ["RK45", "LSODA", "ode.dop853"])
+def test_a_force_that_turns_nan_is_named(method):
+    """A force that returns NaN after t = 0.5 s gave "the step size underflowed ... the motion or a force is most
+    likely singular there" (RK45), a change point at a NaN state (LSODA, which took the step), or "the step size
+    became too small ... Try an implicit method" (ode.dop853). The force is named, and ending the run before
+    t = 0.5 s, as advised, gives the pendulum's motion."""
+    def force(t, s, sd):
+        return np.array([0.0 if t < 0.5 else np.nan, 0.0, 0.0])
+
+    system = System(pendulum_model(), {"m": 2.0, "l": 1.5, "g": 9.81}, force=force)
+    state = consistent_initial_state(system, [0.3], [0.0], [0.4, -1.4])
+    formulation = ClosedForm() if method == "ode.dop853" else Baumgarte()
+    with pytest.raises(IntegrationError) as error:
+        simulate(system, state, 2.0, formulation=formulation, method=method)
+    message = str(error.value)
+    assert "; the force returned [nan  0.  0.] at t = 0.5" in message and "at a finite state" in message
+    t_fail = float(re.search(r"end the run before t = ([0-9.e+-]+) s, or mend the force$", message).group(1))
+    assert 0.5 <= t_fail < 0.53
+    result = passes(simulate(system, state, 0.49, formulation=formulation, method=method, rtol=1e-10, atol=1e-10),
+                    0.49)
+    exact = solve_ivp(lambda t, u: [u[1], -9.81 / 1.5 * math.sin(u[0])], (0.0, 0.49), [0.3, 0.0], method="DOP853",
+                      rtol=1e-12, atol=1e-12).y[0, -1]
+    assert result.coordinate("theta")[-1] == pytest.approx(exact, abs=1e-7)

@@ -162,3 +162,50 @@ def test_plausible_slips_are_not_taken_for_right_answers():
     steps = np.diff(gas_outward_work(x))
     assert not _compare("11.5", float(np.sum(steps[(rate[:-1] > 0) & (rate[1:] > 0)])))
     assert not _compare("11.5", float(np.sum(steps[rate[:-1] > 0])))
+
+
+LABELS = st.one_of(st.none(), st.booleans(), st.integers(-100, 100), st.floats(allow_nan=True),
+                   st.text(max_size=6), st.lists(st.text(max_size=3), max_size=2), st.tuples(st.integers()),
+                   st.dictionaries(st.text(max_size=2), st.integers(), max_size=1))
+
+
+@settings(max_examples=60, deadline=None)
+@given(label=LABELS)
+def test_a_label_of_any_kind_gets_one_plain_line(label):
+    """check(3.5, x) raised a raw KeyError (its message in quotes), check(["3.5"], x) a TypeError (unhashable):
+    every label that is no exercise of the chapter is refused with one plain line that says what a label is."""
+    ch03 = importlib.import_module("checking.ch03")
+    if isinstance(label, str) and label in ch03.CHECKS:
+        return
+    with pytest.raises(checking.UnknownExercise) as error:
+        ch03.check(label, 1.0)
+    message = str(error.value)
+    assert "\n" not in message and not message.startswith(("'", '"'))
+    if isinstance(label, str):
+        assert message == f"no exercise {label!r} here; the exercises are 3.5, 3.6, 3.7, 3.8, 3.9"
+    else:
+        assert message.startswith("check(label, answer): the label is the exercise's number in quotes, such as "
+                                  f"'3.5', got {label!r} ({type(label).__name__})")
+
+
+def test_the_label_as_advised_gets_a_verdict(capsys):
+    ch03 = importlib.import_module("checking.ch03")
+    with pytest.raises(checking.UnknownExercise):
+        ch03.check(3.5, 1.0)
+    ch03.check("3.5", 1.0)                                  # the label in quotes, as the message says
+    assert capsys.readouterr().out.startswith("Exercise 3.5: ")
+
+
+@pytest.mark.parametrize("answer, line", [
+    (math.inf, "expected a finite number, got inf"),
+    ([1.0, math.nan], "expected finite numbers in an array of shape (2,), got [1.0, nan]"),
+    (1 + 2j, "expected a number, got a complex number"),
+    ([1j, 2.0], "expected numbers in an array of shape (2,), got complex numbers"),
+])
+def test_a_wrong_kind_of_number_is_said_in_words_without_a_warning(answer, line, capsys, recwarn):
+    """It said "expected finite a number", and a complex answer printed numpy's ComplexWarning first."""
+    expected = 2.0 if np.ndim(answer) == 0 else np.array([1.0, 2.0])
+    check = checking.Check("x.3", lambda: expected, checking.numeric(), "hint", lambda e: e + 1)
+    assert not check(answer)
+    assert capsys.readouterr().out == f"Exercise x.3: {line}.\n"
+    assert [str(warning.message) for warning in recwarn] == []

@@ -129,6 +129,8 @@ def test_every_path_stops_at_the_change_point(formulation, method, geometry, out
     message = str(caught.value)
     if "reaches a change point" in message:
         assert float(re.search(r"Kantorovich number (inf|[0-9.e+-]+)", message).group(1)) > CHANGE_POINT_LIMIT
+    elif "crawls" in message:           # Radau creeps towards it, its steps shrinking to nothing
+        assert method == "Radau" and float(re.search(r"cond\(Phi_s\) = ([0-9.e+-]+)", message).group(1)) > 1e3
     else:                               # the projection of a step end met the loss of rank first
         assert formulation.name == "projected" and "Phi_s Phi_s^T is singular" in message
     # Minimal stops when Newton fails one stage past the fold, and the fold is found on the

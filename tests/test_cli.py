@@ -83,9 +83,10 @@ def test_a_short_run_says_what_oscillation_means_and_the_columns_align(capsys):
 
 
 def test_the_default_method_is_one_the_formulation_takes(capsys):
-    """ode.dop853 for the closed form; DOP853 for the formulations ode.dop853 refuses (it has no dense
-    output for their branch guard): --formulation baumgarte alone used to fail on a method never given."""
-    for formulation, method in (("closed-form", "ode.dop853"), ("baumgarte", "DOP853"), ("augmented", "DOP853")):
+    """ode.dop853 wherever the formulation takes it; DOP853 for Projected, which resets the state of a solve_ivp
+    Runge-Kutta method after each step: --formulation projected alone must not fail on a method never given."""
+    for formulation, method in (("closed-form", "ode.dop853"), ("baumgarte", "ode.dop853"),
+                                ("projected", "DOP853")):
         assert main(["simulate", "--case", "2", "--t-end", "1", "--formulation", formulation, "--json"]) == 0
         assert json.loads(capsys.readouterr().out)["method"] == method
 

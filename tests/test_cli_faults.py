@@ -114,6 +114,29 @@ def test_a_read_only_file_is_refused(tmp_path, capsys, monkeypatch, no_computati
     assert f"--json: {target} exists and is not writable" in line
 
 
+@pytest.mark.parametrize("argv, option", [
+    (["simulate", "--case", "2", "--t-end", "0.5", "--plot", "{folder}/x.png"], "--plot"),
+    ([*BASIN, "--json", "{folder}/x.json"], "--json"),
+    ([*BASIN, "--png", "{folder}/x.png"], "--png"),
+    (["benchmark", "--quick", "--json", "{folder}/x.json"], "--json"),
+])
+def test_a_folder_the_system_will_not_write_into_is_refused_before_any_work(argv, option, capsys, monkeypatch,
+                                                                            no_computation):
+    """/proc passes os.access for root, yet no file can be made there: basin --json /proc/x.json computed the map,
+    then failed to write it (the map lost), and simulate --plot /proc/x.png failed after the run without naming
+    --plot. The folder is now tried with a file of its own before any work."""
+    import closedloop.output
+
+    folder = "/proc"
+    if not os.path.isdir(folder) or not os.access(folder, os.W_OK):   # elsewhere: a folder that refuses files
+        folder = "/proc" if os.path.isdir("/proc") else "/"
+        real_access = os.access
+        monkeypatch.setattr(closedloop.output.os, "access",
+                            lambda path, mode: True if str(path) == folder else real_access(path, mode))
+    line = one_error_line(capsys, 2, [a.format(folder=folder) for a in argv])
+    assert line.startswith(f"closedloop: error: {option}: cannot write {folder}/x.")
+
+
 @pytest.mark.skipif(os.geteuid() == 0, reason="root may write anywhere")
 def test_a_folder_without_write_permission_is_refused(tmp_path, capsys, no_computation):
     locked = tmp_path / "locked"
@@ -197,7 +220,7 @@ def test_a_failed_json_write_keeps_the_previous_file(tmp_path, capsys, monkeypat
 
     monkeypatch.setattr(json, "dump", full_disk)
     line = one_error_line(capsys, 1, [*BASIN, "--json", str(target)])
-    assert line == f"closedloop: error: cannot write {target}: No space left on device"
+    assert line == f"closedloop: error: --json: cannot write {target}: No space left on device"
     assert target.read_text() == "previous"
     assert leftovers(tmp_path, {"m.json"}) == []                          # no temporary file left behind
 
@@ -215,7 +238,7 @@ def test_a_failed_figure_write_keeps_the_previous_file(tmp_path, capsys, monkeyp
 
     monkeypatch.setattr(Figure, "savefig", full_disk)
     line = one_error_line(capsys, 1, [*BASIN, "--png", str(target)])
-    assert line == f"closedloop: error: cannot write {target}: No space left on device"
+    assert line == f"closedloop: error: --png: cannot write {target}: No space left on device"
     assert target.read_bytes() == b"previous"
     assert leftovers(tmp_path, {"m.png"}) == []
 

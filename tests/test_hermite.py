@@ -45,3 +45,21 @@ def test_the_earliest_of_three_zeros_is_found():
     assert abs(first_root(-g(0.0), -g(1.0), -slope(0.0), -slope(1.0)) - 0.2) < 1e-12
     assert first_root(0.0, 1.0, 5.0, 1.0) == 0.0                        # already on the surface
     assert abs(first_root(-1.0, 1.0, 2.0, 2.0) - 0.5) < 1e-12            # a straight line
+
+
+def test_the_quintic_interpolant_reproduces_every_polynomial_of_degree_five():
+    """Values, slopes and second derivatives at both ends fix a quintic: random ones are reproduced to round-off,
+    with their slopes, on a step of any length h (slopes times h, second derivatives times h^2)."""
+    from closedloop.hermite import quintic_slopes, quintic_values
+
+    rng = np.random.default_rng(34)
+    u = np.linspace(0.0, 1.0, 41)
+    for _ in range(100):
+        p = np.polynomial.Polynomial(rng.normal(size=6))
+        h = 10.0 ** rng.uniform(-3, 1)
+        t = h * u                                          # the polynomial in time, over [0, h]
+        ends = (p(0.0), p(h), h * p.deriv()(0.0), h * p.deriv()(h), h * h * p.deriv(2)(0.0), h * h * p.deriv(2)(h))
+        scale = np.max(np.abs(p(t))) + 1.0
+        assert np.max(np.abs(quintic_values(u, *ends) - p(t))) < 1e-12 * scale
+        assert np.max(np.abs(quintic_slopes(u, *ends) / h - p.deriv()(t))) < 1e-11 * (scale / h + np.max(
+            np.abs(p.deriv()(t))))

@@ -225,6 +225,23 @@ def test_heavy_slider_on_a_light_crank_makes_minimal_jump_branch_clearly():
     assert "too fast for the step" in str(error.value) and "dead position" not in str(error.value)
 
 
+@pytest.mark.parametrize("method", ["RK45", "LSODA"])
+def test_heavy_slider_whip_is_followed_through_picosecond_steps(method):
+    """The same mechanism with no torque and no gas force, so that T + V is conserved: the crank whips through
+    each dead centre at about 1e6 rad/s, in windows of 100 steps that advance less than 1e-5 of the run (the
+    crawl check's trigger). Nothing in the state makes those steps singular (Phi_s and the forces are regular
+    there), so they are the motion's own and the run goes on through them, conserving the energy."""
+    parameters = SliderCrankParameters(m1=1e-6, I1=2.25e-6, m2=1e-6, I2=1e-6, m3=1e6)
+    system = slider_crank_system(parameters, torque=False, gas=False)
+    state = initial_state(system, CASES[2].phi0, CASES[2].dphi0)
+    result = simulate(system, state, 2.0, formulation=Baumgarte(), method=method)
+    assert result.t[-1] == 2.0
+    assert np.convolve(result.step_sizes, np.ones(100), "valid").min() < 1e-5 * 2.0
+    assert np.max(np.abs(result.velocity("phi"))) > 1e6
+    energy = system.energy(result.s, result.sd)
+    assert np.ptp(energy) < 1e-5 * np.max(np.abs(energy))
+
+
 def test_overflow_in_the_right_hand_side_is_a_clear_error(pendulum):
     from closedloop import System, consistent_initial_state
     from tests.conftest import pendulum_model

@@ -542,3 +542,79 @@ def test_an_option_given_as_double_dash_is_an_error(args, capsys):
     # argparse of Python 3.11 hands --opt=-- to cli.py as []: refused as a usage error naming the option
     status, _ = command_line(args, capsys)
     assert status == 2
+
+
+# -- MultibodyModel ---------------------------------------------------------------------------------
+
+import sympy as sp  # noqa: E402
+
+THETA, X, Y, DTHETA, DX, DY, M, L, G = sp.symbols("theta x y dtheta dx dy m l g")
+PENDULUM = dict(coordinates=(THETA, X, Y), velocities=(DTHETA, DX, DY), kinetic_energy=M * (DX**2 + DY**2) / 2,
+                potential_energy=M * G * Y, constraints=(X - L * sp.sin(THETA), Y + L * sp.cos(THETA)),
+                independent=(THETA,), parameters=(M, L, G))
+MODEL_NAMES = tuple(f"{name}:" for name in list(PENDULUM) + ["generalized_forces", "time"]) + (
+    "coordinates and velocities must be",)
+SYMBOLISH = st.one_of(st.sampled_from([THETA, X, Y, DTHETA, DX, DY, M, L, G, sp.Symbol("w"), sp.Integer(2),
+                                       sp.sin(THETA), 2 * X, "x", "dx", b"x", None, True, 1.5]),
+                      NO_NUMBER)
+
+
+@st.composite
+def model_fields(draw):
+    """The pendulum's fields, a few of them replaced: symbols where expressions go, text, numbers, wrong lengths."""
+    fields = dict(PENDULUM)
+    for name in draw(st.lists(st.sampled_from(list(PENDULUM) + ["generalized_forces", "time"]), unique=True,
+                              max_size=3)):
+        if name in ("kinetic_energy", "potential_energy", "time"):
+            fields[name] = draw(st.one_of(SYMBOLISH, ANY_NUMBER, st.sampled_from([X * DX, M * G * sp.Symbol("t")])))
+        else:
+            fields[name] = draw(st.one_of(st.lists(SYMBOLISH, max_size=4).map(tuple), SYMBOLISH,
+                                          st.sampled_from([(), (THETA, X), (X, X, Y), (THETA, X, Y, G)])))
+    return fields
+
+
+@settings(max_examples=300, deadline=None)
+@given(fields=model_fields())
+@example(fields=dict(PENDULUM, constraints=(X - L * sp.sin(THETA), Y + L * sp.cos(THETA), X + Y), independent=()))
+@example(fields=dict(PENDULUM, velocities=("dtheta", "dx", "dy")))
+def test_multibody_model(fields):
+    """Any fields give a model the library can derive, or one line naming the field (InputError)."""
+    model, error = outcome(closedloop.MultibodyModel, **fields)
+    if error is not None:
+        assert isinstance(error, InputError), repr(error)
+        assert_one_line(error, *MODEL_NAMES)
+        return
+    assert len(model.independent) + len(model.constraints) == len(model.coordinates)
+    assert all(isinstance(symbol, sp.Symbol) for symbol in model.coordinates + model.velocities)
+
+
+# -- consistent_initial_state -----------------------------------------------------------------------
+
+PENDULUM_SYSTEM = System(closedloop.MultibodyModel(**PENDULUM), {"m": 2.0, "l": 1.5, "g": 9.81})
+Q_VALUES = st.one_of(st.lists(st.floats(-10, 10), min_size=1, max_size=1), st.lists(ANY_NUMBER, max_size=3),
+                     NO_NUMBER, ANY_NUMBER)
+Z_VALUES = st.one_of(st.lists(st.floats(-3, 3), min_size=2, max_size=2), st.lists(ANY_NUMBER, max_size=3),
+                     NO_NUMBER, st.sampled_from([[0.0, 0.0], [0.0, -1.5], [1.5, 0.0]]))
+
+
+@settings(max_examples=300, deadline=None)
+@given(q0=Q_VALUES, qd0=Q_VALUES, z_guess=Z_VALUES)
+@example(q0=[math.pi / 2], qd0=[1.0], z_guess=[1.5, 0.0])        # the pendulum level: Phi_z singular there
+@example(q0=[0.0], qd0=[0.0], z_guess=[0.0, 4503599627370495.0])  # found here: Newton stopped at |f| = 0.5, its
+#                                                                     tolerance taken relative to the guess
+@example(q0=[0.0], qd0=[1.1984620899082105e+308], z_guess=[0.0, 0.0])   # found here: R q' overflowed, a warning
+def test_consistent_initial_state(q0, qd0, z_guess):
+    """Any q0, q0', guess of z give a consistent state, or one line naming the parameter (InputError) or saying
+    where the constraints can not be solved (ConvergenceError, SingularConfigurationError)."""
+    state, error = outcome(closedloop.consistent_initial_state, PENDULUM_SYSTEM, q0, qd0, z_guess)
+    if error is not None:
+        if isinstance(error, InputError):
+            assert_one_line(error, "q0:", "qd0:", "z_guess:")
+        else:
+            assert_one_line(error)
+        return
+    assert finite(state.s, state.sd)
+    f, Phi = PENDULUM_SYSTEM.constraints_and_jacobian(state.s)
+    assert np.max(np.abs(f)) <= 1e-12 * (1.0 + np.max(np.abs(state.s)))
+    assert np.max(np.abs(Phi @ state.sd)) <= 1e-9 * (1.0 + np.max(np.abs(state.sd)))
+    assert state.s[0] == pytest.approx(float(np.ravel(q0)[0])) and state.sd[0] == pytest.approx(float(np.ravel(qd0)[0]))

@@ -73,3 +73,79 @@ def test_a_kinetic_energy_that_is_not_positive_is_refused(masses, message, name)
     state = consistent_initial_state(system, [-np.pi / 2], [1.0], [0.0, -np.pi / 2])
     with pytest.raises(InputError, match=message):
         simulate(system, state, 1.0, formulation=formulation_from_name(name))
+
+
+@pytest.mark.parametrize("misspelt, meant", [("max_stp", "max_step"), ("rtoll", "rtol"), ("stop_wen", "stop_when")])
+def test_a_misspelt_keyword_is_refused_with_the_close_match_and_the_advice_works(setup, misspelt, meant):
+    """max_stp=0.01 went on to solve_ivp, which warned and ignored it: the run was not the one asked for."""
+    system, state = setup
+    value = {"max_step": 0.01, "rtol": 1e-6, "stop_when": lambda t, s, sd: t - 0.5}[meant]
+    with pytest.raises(InputError) as error:
+        simulate(system, state, 1.0, **{misspelt: value})
+    message = str(error.value)
+    assert message.startswith(f"{misspelt}: unknown keyword of simulate(); did you mean {meant!r}? simulate() takes "
+                              "system, initial_state, t_end, t_start, formulation, method, rtol, atol, ")
+    assert message.endswith("and for RK45 the solver options first_step, max_step")
+    result = simulate(system, state, 1.0, **{meant: value})               # the advice, followed
+    if meant == "max_step":
+        assert np.max(result.step_sizes) <= 0.01 * (1 + 1e-12)
+    elif meant == "stop_when":
+        assert result.stopped_at == pytest.approx(0.5)
+    else:
+        assert result.rtol == 1e-6
+
+
+def test_a_solver_option_of_another_method_is_refused_naming_those_that_take_it(setup):
+    system, state = setup
+    with pytest.raises(InputError, match=r"^min_step: not a solver option of RK45 \(only of LSODA\); simulate\(\) "
+                                         r"takes .*, and for RK45 the solver options first_step, max_step$"):
+        simulate(system, state, 1.0, min_step=1e-4)
+    result = simulate(system, state, 1.0, method="LSODA", min_step=1e-6)       # where it is taken
+    assert np.min(result.step_sizes[:-1]) >= 1e-6
+
+
+@pytest.mark.parametrize("stop_when, shown", [
+    (lambda t, s, sd: float("nan"), "nan"),
+    (lambda t, s, sd: s[0] > 2.0, "False"),
+    (lambda t, s, sd: np.inf, "inf"),
+    (lambda t, s, sd: 1.0 + 2.0j, r"\(1\+2j\)"),
+])
+def test_a_stop_when_that_is_no_finite_number_is_refused_before_the_run(setup, stop_when, shown):
+    """A NaN never crosses zero: the run went on with stop_when silently off; a bool crosses at every False."""
+    system, state = setup
+    with pytest.raises(InputError, match=rf"^stop_when: must return a finite number \(it stops the run where it "
+                                         rf"crosses zero upward\), got {shown} at t = 0 s$"):
+        simulate(system, state, 1.0, stop_when=stop_when)
+
+
+@pytest.mark.parametrize("method", ["RK45", "LSODA", "ode.dop853"])
+def test_a_stop_when_that_turns_nan_during_the_run_is_refused_with_its_time(setup, method):
+    from closedloop import ClosedForm
+
+    system, state = setup
+
+    def stop_when(t, s, sd):
+        return -1.0 if t < 0.3 else float("nan")
+
+    with pytest.raises(InputError) as error:
+        simulate(system, state, 1.0, formulation=ClosedForm(), method=method, stop_when=stop_when)
+    message = str(error.value)
+    assert message.startswith("stop_when: must return a finite number") and message.endswith(" s")
+    assert 0.3 <= float(message.split("at t = ")[1].split(" s")[0]) < 0.6      # the first step end past 0.3 s
+
+
+def test_a_stop_when_that_raises_is_named_with_its_time(setup):
+    system, state = setup
+    with pytest.raises(InputError, match=r"^stop_when: stop_when\(t, s, sd\) raised IndexError at t = 0 s: "):
+        simulate(system, state, 1.0, stop_when=lambda t, s, sd: s[7])
+
+
+def test_an_initial_state_of_strings_is_refused_naming_it(setup):
+    """InitialState(['a', 'b', 'c'], [0, 0, 0]) raised numpy's ValueError ('could not convert string to float')."""
+    from closedloop import InitialState
+
+    with pytest.raises(InputError, match=r"^InitialState: s must be numbers, got \['a', 'b', 'c'\]$"):
+        InitialState(["a", "b", "c"], [0, 0, 0])
+    system, state = setup
+    result = simulate(system, InitialState(list(state.s), list(state.sd)), 0.1)    # numbers: a state
+    assert result.t[-1] == pytest.approx(0.1)

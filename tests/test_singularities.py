@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from closedloop import (Augmented, Baumgarte, InitialState, InputError, Minimal, NullSpace, Orthogonal,
+from closedloop import (Augmented, Baumgarte, ClosedForm, InitialState, InputError, Minimal, NullSpace, Orthogonal,
                         SingularConfigurationError, System, consistent_initial_state, derive, formulation_from_name,
                         null_space_basis, simulate)
 from closedloop.four_bar import four_bar_model
@@ -228,3 +228,19 @@ def test_null_space_basis_refuses_an_unknown_basis():
 
     with pytest.raises(InputError, match=r"^basis: unknown 'bogus'; choose one of svd, pivoted$"):
         null_space_basis(np.array([[1.0, 2.0, 3.0]]), basis="bogus")          # it gave the pivoted basis
+
+
+@pytest.mark.parametrize("formulation", [Orthogonal(), ClosedForm()], ids=lambda f: f.name)
+def test_the_compiled_dop853_passes_the_dead_positions_with_the_branch_guard(rocking, through_dead_positions,
+                                                                             formulation):
+    """ode.dop853 has no dense output, and it refused every crossing of det Phi_z = 0 ("use a solve_ivp method");
+    the crossing is now located on the quintic Hermite interpolant of the step's end states, and the branch
+    guard checked there, as on solve_ivp: the same dead positions, to 1e-8 s, and the same motion."""
+    state, _, reference = through_dead_positions
+    times = reference.t
+    tight = simulate(rocking, state, 8.0, formulation=NullSpace(), method="DOP853", rtol=1e-12, atol=1e-12)
+    result = simulate(rocking, state, 8.0, formulation=formulation, method="ode.dop853", rtol=1e-10, atol=1e-10,
+                      t_eval=times)
+    assert len(result.partition_singularities) == len(tight.partition_singularities) >= 3
+    assert np.max(np.abs(np.subtract(result.partition_singularities, tight.partition_singularities))) < 1e-8
+    assert np.max(np.abs(result.s - reference.s)) < 1e-7

@@ -177,3 +177,58 @@ def test_an_initial_state_at_a_dead_position_is_refused_with_a_remedy_for_starti
     with pytest.raises(SingularConfigurationError, match=r"^q0: Phi_z is singular at q0 = \[0\.608.*start away"):
         initial_state(rocking, dead, 1.0)
     assert initial_state(rocking, dead - 0.01, 1.0).sd[0] == 1.0         # just beside it, a state
+
+
+WRONG_KINDS = [None, "x", 1.5, [1, 2], object(), np.array([1.0, 2.0]), True]
+
+
+def _entry_points():
+    """Each public entry point with one argument left open: ``{name: (call, the parameter its error names)}``."""
+    import sympy as sp
+
+    from closedloop import MultibodyModel, consistent_initial_state, derive, null_space_basis
+    from closedloop.fixed_step import rk4
+    from closedloop.formulations import project_state
+    from closedloop.slider_crank import classify_motion, slider_crank_system
+
+    system = slider_crank_system()
+    state = initial_state(system, 1.0, 1.0)
+    x, dx = sp.symbols("x dx")
+    return {
+        "simulate(system)": (lambda b: simulate(b, state, 1.0), "system:"),
+        "simulate(multipliers)": (lambda b: simulate(system, state, 1.0, multipliers=b), "multipliers:"),
+        "simulate(work)": (lambda b: simulate(system, state, 1.0, work=b), "work:"),
+        "simulate(max_segments)": (lambda b: simulate(system, state, 1.0, max_segments=b), "max_segments:"),
+        "derive": (derive, "model:"),
+        "consistent_initial_state(system)": (lambda b: consistent_initial_state(b, [1.0], [1.0], [3.0, 4.0]),
+                                             "system:"),
+        "initial_state(system)": (lambda b: initial_state(b, 1.0, 1.0), "system:"),
+        "slider_crank_system(torque)": (lambda b: slider_crank_system(torque=b), "torque:"),
+        "rk4(system)": (lambda b: rk4(b, Baumgarte(), state.s, state.sd, 0.01, 3), "system:"),
+        "rk4(formulation)": (lambda b: rk4(system, b, state.s, state.sd, 0.01, 3), "formulation:"),
+        "null_space_basis": (null_space_basis, "Phi:"),
+        "project_state": (lambda b: project_state(system, b, state.sd), "s, sd:"),
+        "MultibodyModel(kinetic_energy)": (lambda b: MultibodyModel((x,), (dx,), b, 0, (), (x,)),
+                                           "kinetic_energy:"),
+        "InitialState": (lambda b: InitialState(b, [0.0, 0.0, 0.0]), "InitialState:"),
+        "classify_motion": (lambda b: classify_motion(b), "result:"),
+    }
+
+
+@pytest.mark.parametrize("name", list(_entry_points()))
+def test_every_entry_point_refuses_a_wrong_kind_of_argument_with_input_error(name):
+    """Each raised AttributeError, TypeError or numpy's ValueError ("the truth value of an array ... is
+    ambiguous"), or took a wrong value on: the error is an InputError on one line that names the parameter."""
+    call, parameter = _entry_points()[name]
+    refused = []
+    for value in WRONG_KINDS:
+        try:
+            call(value)
+        except InputError as error:
+            assert "\n" not in str(error) and str(error).startswith(parameter), (value, str(error))
+            refused.append(value)
+        except AssertionError as error:                 # a value of the right kind: the run was about to start
+            assert "solve_ivp was called" in str(error)
+        except Exception as error:                      # anything else escapes the library: the failure
+            pytest.fail(f"{name}({value!r}) raised {type(error).__name__}: {error}")
+    assert len(refused) >= len(WRONG_KINDS) - 2, (name, refused)   # 1.5 or True may be of the right kind

@@ -23,7 +23,7 @@ import os
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-__all__ = ["Check", "NotAnswered", "WrongKind", "as_numbers", "numeric", "same_angles", "choice", "symbolic",
+__all__ = ["Check", "NotAnswered", "WrongKind", "UnknownExercise", "as_numbers", "numeric", "same_angles", "choice", "symbolic",
            "not_an_expression", "scaled", "another_letter", "make_check", "LOG_VARIABLE", "VERDICTS"]
 
 #: The environment variable that names the file the checks log their verdicts to (for grading).
@@ -38,6 +38,13 @@ class NotAnswered(Exception):
 
 class WrongKind(Exception):
     """The answer is not the kind of thing the exercise asks for (text for a number, say)."""
+
+
+class UnknownExercise(LookupError):
+    """``check(label, answer)`` with a label that names no exercise of the chapter (or is no label at all)."""
+
+    def __str__(self):                      # one plain line (a KeyError would show its message in quotes)
+        return str(self.args[0]) if self.args else ""
 
 
 @dataclass(frozen=True)
@@ -115,19 +122,22 @@ def as_numbers(answer, expected, complex_numbers=False):
 
     shape = np.shape(expected)
     wanted = "a number" if shape == () else f"numbers in an array of shape {shape}"
+    finite = "a finite number" if shape == () else f"finite numbers in an array of shape {shape}"
     if answer is None or isinstance(answer, (str, bytes, bool, np.bool_)):
         raise WrongKind(f"expected {wanted}, got {answer!r}")
     try:
         raw = np.asarray(answer)
-        array = raw.astype(complex if complex_numbers else float)
     except (TypeError, ValueError):
         raise WrongKind(f"expected {wanted}, got {type(answer).__name__}") from None
-    if raw.dtype.kind not in ("iufc" if complex_numbers else "iuf"):
-        raise WrongKind(f"expected {wanted}, got {type(answer).__name__} of {raw.dtype}")
+    if raw.dtype.kind not in ("iufc" if complex_numbers else "iuf"):      # before converting: no ComplexWarning
+        what = "a complex number" if raw.dtype.kind == "c" and raw.ndim == 0 else (
+            "complex numbers" if raw.dtype.kind == "c" else f"{type(answer).__name__} of {raw.dtype}")
+        raise WrongKind(f"expected {wanted}, got {what}")
+    array = raw.astype(complex if complex_numbers else float)
     if array.shape != shape:
         raise WrongKind(f"expected {wanted}, got shape {array.shape}")
     if not np.all(np.isfinite(array)):
-        raise WrongKind(f"expected finite {wanted}, got {answer!r}")
+        raise WrongKind(f"expected {finite}, got {answer!r}")
     return array
 
 
@@ -234,7 +244,10 @@ def make_check(checks: dict):
     shows the verdict alone (``Check.__call__`` returns it as a bool, for graders).
     """
     def check(label, answer):
+        if not isinstance(label, str):
+            raise UnknownExercise(f"check(label, answer): the label is the exercise's number in quotes, such as "
+                                  f"{next(iter(checks))!r}, got {label!r} ({type(label).__name__})")
         if label not in checks:
-            raise KeyError(f"no exercise {label!r} here; the exercises are {', '.join(checks)}")
+            raise UnknownExercise(f"no exercise {label!r} here; the exercises are {', '.join(checks)}")
         checks[label](answer)
     return check

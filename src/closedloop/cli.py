@@ -51,8 +51,8 @@ DEFAULT_T_END = 20.0
 #: form (26) with the compiled DOP853 reaches every case's accuracy first). Any other is an option:
 #: the default until issue 14 was --formulation baumgarte --method RK45.
 DEFAULT_METHOD = "ode.dop853"
-#: The method for a formulation that does not take DEFAULT_METHOD (Augmented, Baumgarte, NullSpace, Projected:
-#: the compiled code has no dense output for their branch guard).
+#: The method for a formulation that does not take DEFAULT_METHOD (Projected: it resets the state of a
+#: solve_ivp Runge-Kutta method after every step).
 FALLBACK_METHOD = "DOP853"
 DEFAULT_FORMULATION = "closed-form"
 #: What the summary and the figure say of a run whose warnings keep it from being classified.
@@ -257,6 +257,8 @@ def run_simulate(args):
     methods = methods_taking(formulation)
     method = args.method if args.method is not None else (
         DEFAULT_METHOD if DEFAULT_METHOD in methods else FALLBACK_METHOD)
+    if method in SOLVER_METHODS:
+        formulation.check_method(method)          # a method the formulation does not take: its own reason
     one_of("method", method, methods)
     reading = get_reading(args.reading)
     _check_figure_file("--plot", args.plot)
@@ -294,7 +296,8 @@ def run_simulate(args):
 
         label = f"case {case}" if case else f"phi0 = {phi0:g} rad, dphi0 = {dphi0:g} rad/s"
         motion = summary["motion"] or NOT_CLASSIFIED
-        save_figure(plot_slider_crank(result, title=f"Slider-crank, {label}: {motion}"), args.plot, dpi=120)
+        save_figure(plot_slider_crank(result, title=f"Slider-crank, {label}: {motion}"), args.plot, dpi=120,
+                    option="--plot")
         summary["plot"] = args.plot
     return summary
 
@@ -315,14 +318,14 @@ def _check_json_file(option, path):
         check_file(option, path)
 
 
-def _write_json(path, data, indent=None):
+def _write_json(path, data, indent=None, option="--json"):
     """``data`` as JSON into ``path``, atomically, or onto standard output for ``-``."""
     if path == STDOUT:
         json.dump(data, sys.stdout, indent=indent)
         sys.stdout.write("\n")
         sys.stdout.flush()
         return
-    with atomic_write(path) as handle:
+    with atomic_write(path, option=option) as handle:
         json.dump(data, handle, indent=indent)
         handle.write("\n")
 
@@ -389,7 +392,7 @@ def run_basin(args, progress=None):
     if args.png is not None:
         from .plotting import plot_basin_map
 
-        save_figure(plot_basin_map(basin), args.png, dpi=120)
+        save_figure(plot_basin_map(basin), args.png, dpi=120, option="--png")
     return basin
 
 
@@ -499,7 +502,7 @@ def run_benchmark(args):
         written["residuals_case2.png"] = residual_figure(
             residual_traces(2, "DOP853", 1e-6), "Case 2, DOP853, rtol = atol = 1e-6")
         for name, fig in written.items():
-            save_figure(fig, str(figures / name), dpi=110)
+            save_figure(fig, str(figures / name), dpi=110, option="--figures")
         lines.append(f"figures written to {figures}: {', '.join(written)}")
     return "\n".join(lines)
 

@@ -19,8 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError, IntegrationError
-from .formulations import Baumgarte
-from .validation import positive_integer, positive_number
+from .formulations import Baumgarte, Formulation
+from .model import System
+from .validation import instance_of, positive_integer, positive_number
 
 __all__ = [
     "rk4",
@@ -159,6 +160,9 @@ def rk4(system, formulation, s0, sd0, step, n_steps, t_start=0.0, divergence=1e6
     IntegrationError
         If the right-hand side overflows before the divergence test catches it.
     """
+    instance_of("system", system, System)
+    if not isinstance(formulation, Formulation):
+        raise InputError(f"formulation: expected a Formulation, got {type(formulation).__name__}")
     if system.force is not None and system.force.switch_names:
         raise InputError("system: rk4 does not stop at switches; use a system without switched forces "
                          "(e.g. slider_crank_system(gas=False)) or simulate()")

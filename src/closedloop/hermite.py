@@ -12,13 +12,21 @@ compiled DOP853's events, the basin map's batch integrator), where the path
 meets a change point (:mod:`closedloop.simulation.change_points`), and the
 turning points of a one-sided force's coordinate (:mod:`closedloop.studies.energy`).
 Every function takes numbers or arrays of one shape (K states at once).
+
+Where the second derivatives at the ends are known too (the accelerations of a
+step's end states), the quintic Hermite interpolant (:func:`quintic_values`,
+:func:`quintic_slopes`) matches them as well, with an error of order h^6
+instead of h^4: the watch along a run's steps (:mod:`closedloop.simulation.watch`)
+locates a crossing of det Phi_z = 0 and a turning point of the independent
+coordinates on it.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["values", "slopes", "first_root", "turning_point", "ROOT_TOLERANCE", "SAMPLES"]
+__all__ = ["values", "slopes", "quintic_values", "quintic_slopes", "first_root", "turning_point", "ROOT_TOLERANCE",
+           "SAMPLES"]
 
 #: Roots are refined until the bracket, or the Newton step, is below this (per unit of the step).
 ROOT_TOLERANCE = 1e-13
@@ -41,6 +49,29 @@ def values(u, g0, g1, d0, d1):
 def slopes(u, g0, g1, d0, d1):
     """dp/du of the interpolant."""
     return 6.0 * u * (u - 1.0) * (g0 - g1) + (1.0 - u) * (1.0 - 3.0 * u) * d0 + u * (3.0 * u - 2.0) * d1
+
+
+def quintic_values(u, g0, g1, d0, d1, c0, c1):
+    """The quintic Hermite interpolant with values g0, g1, slopes d0, d1 and second derivatives c0, c1.
+
+    Per unit of the step, like :func:`values`: the slopes are multiplied by the
+    step h, the second derivatives by h^2.
+    """
+    u2 = u * u
+    u3 = u2 * u
+    v3 = (1.0 - u) ** 3
+    return (v3 * (g0 + u * (3.0 * g0 + d0) + u2 * (6.0 * g0 + 3.0 * d0 + 0.5 * c0))
+            + u3 * (g1 + (1.0 - u) * (3.0 * g1 - d1) + (1.0 - u) ** 2 * (6.0 * g1 - 3.0 * d1 + 0.5 * c1)))
+
+
+def quintic_slopes(u, g0, g1, d0, d1, c0, c1):
+    """d/du of :func:`quintic_values`."""
+    w = 1.0 - u
+    u2 = u * u
+    inner0 = g0 + u * (3.0 * g0 + d0) + u2 * (6.0 * g0 + 3.0 * d0 + 0.5 * c0)
+    inner1 = g1 + w * (3.0 * g1 - d1) + w * w * (6.0 * g1 - 3.0 * d1 + 0.5 * c1)
+    return (-3.0 * w * w * inner0 + w ** 3 * (3.0 * g0 + d0 + 2.0 * u * (6.0 * g0 + 3.0 * d0 + 0.5 * c0))
+            + 3.0 * u2 * inner1 + u2 * u * (-(3.0 * g1 - d1) - 2.0 * w * (6.0 * g1 - 3.0 * d1 + 0.5 * c1)))
 
 
 def first_root(g0, g1, d0, d1):

@@ -12,10 +12,10 @@ import math
 import numpy as np
 
 from .errors import ConvergenceError, InputError, SingularConfigurationError, at_time
-from .linalg import orthogonal_complement, solve_many, solve_small
-from .validation import finite_array
+from .linalg import RANK_LIMIT, orthogonal_complement, solve_many, solve_small
+from .validation import finite_array, shown
 
-__all__ = ["solve_dependent", "solve_dependent_many", "newton_on_constraints", "dependent_velocities",
+__all__ = ["solve_dependent", "solve_dependent_many", "dependent_constraints_error", "newton_on_constraints", "dependent_velocities",
            "consistent_initial_state", "InitialState", "NEWTON_TOLERANCE", "NEWTON_MAX_ITERATIONS"]
 
 #: Newton stops when |f| (or its step) is below this, relative to 1 + |s| (or 1 + |z|).
@@ -44,8 +44,10 @@ def newton_on_constraints(evaluate, correct, s, tolerance=NEWTON_TOLERANCE, max_
         The starting state(s); changed in place.  With K columns every
         reduction runs down the columns and all of them must pass.
     tolerance : float
-        Newton stops when ``max |f| <= tolerance (1 + max |s|)`` (|s| at the
-        start), or when a step is below ``tolerance (1 + max |entries|)``.
+        Newton stops when ``max |f| <= tolerance (1 + max |s|)`` (the smaller
+        |s| of the start and of the iterate: a guess far off, 4.5e15 say, does
+        not make |f| = 0.5 small), or when a step is below
+        ``tolerance (1 + max |entries|)``.
     max_iterations : int
 
     Returns
@@ -59,7 +61,7 @@ def newton_on_constraints(evaluate, correct, s, tolerance=NEWTON_TOLERANCE, max_
     f_tolerance = tolerance * (1.0 + np.abs(s).max(axis=0))
     for _ in range(max_iterations):
         f, Phi = evaluate(s)
-        if np.all(np.abs(f).max(axis=0) <= f_tolerance):
+        if np.all(np.abs(f).max(axis=0) <= np.minimum(f_tolerance, tolerance * (1.0 + np.abs(s).max(axis=0)))):
             return s, Phi
         step = correct(s, f, Phi)
         if not np.all(np.isfinite(s)):
@@ -96,7 +98,8 @@ def _newton_one_state(evaluate, correct, s, tolerance, max_iterations):
     f_tolerance = tolerance * (1.0 + _largest_magnitude(s))
     for _ in range(max_iterations):
         f, Phi = evaluate(s)
-        if _largest_magnitude(f) <= f_tolerance:
+        residual = _largest_magnitude(f)
+        if residual <= f_tolerance and residual <= tolerance * (1.0 + _largest_magnitude(s)):
             return s, Phi
         step = correct(s, f, Phi)
         if not all(map(math.isfinite, s.tolist())):
@@ -151,7 +154,7 @@ def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
         try:
             step = solve_small(Phi[:, zi], f)
         except np.linalg.LinAlgError:
-            raise SingularConfigurationError(
+            raise dependent_constraints_error(Phi, s, t) or SingularConfigurationError(
                 f"Phi_z is singular{at_time(t)} at s = {np.array2string(s, precision=6)}: "
                 "the dependent coordinates are not determined there (a kinematic singularity); "
                 "start from another guess of z or choose other independent coordinates"
@@ -167,6 +170,26 @@ def solve_dependent(system, q, z_guess, t=None, tolerance=NEWTON_TOLERANCE,
         f"Newton on f(q, z) = 0 did not converge in {max_iterations} iterations{at_time(t)} "
         f"(q = {np.array2string(np.asarray(q), precision=6)}, |f| = {residual:.3g}): the mechanism "
         "may not assemble at this q, or the guess of z is on no branch"
+    )
+
+
+def dependent_constraints_error(Phi, s, t=None):
+    """The SingularConfigurationError for constraints whose Jacobian Phi_s (r x n) loses rank at ``s``, or None.
+
+    A Phi_z that is singular because the rows of Phi_s themselves are dependent is no dead position of
+    the independent coordinates: no guess of z and no other partition helps.
+    """
+    singular_values = np.linalg.svd(np.asarray(Phi, dtype=float), compute_uv=False)
+    if not (np.all(np.isfinite(singular_values)) and singular_values[0] > 0):
+        return None
+    if singular_values[-1] > RANK_LIMIT * singular_values[0]:
+        return None
+    rank = int(np.sum(singular_values > RANK_LIMIT * singular_values[0]))
+    return SingularConfigurationError(
+        f"the constraints are not independent{at_time(t)} at s = {np.array2string(np.asarray(s), precision=6)}: "
+        f"Phi_s has rank {rank} < r = {singular_values.size} there, so f = 0 does not fix the dependent "
+        "coordinates; remove a constraint that repeats the others, or, at a change point of the mechanism, "
+        "start away from it"
     )
 
 
@@ -227,11 +250,25 @@ class InitialState:
     """
 
     def __init__(self, s, sd):
-        self.s = np.asarray(s, dtype=float)
-        self.sd = np.asarray(sd, dtype=float)
+        self.s = _numbers("s", s)
+        self.sd = _numbers("sd", sd)
 
     def __repr__(self):
         return f"InitialState(s={self.s!r}, sd={self.sd!r})"
+
+
+def _numbers(name, values):
+    """``values`` as a flat float array, or an InputError naming InitialState's ``name`` (finiteness and size are
+    checked later, by :func:`initial_state_arrays`, against the system)."""
+    if values is None or isinstance(values, (str, bytes)):
+        raise InputError(f"InitialState: {name} must be numbers, got {shown(values)}")
+    try:
+        array = np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"InitialState: {name} must be numbers, got {shown(values)}") from None
+    if array.ndim != 1:
+        raise InputError(f"InitialState: {name} must be a flat list of numbers, got {shown(values)}")
+    return array
 
 
 def initial_state_arrays(initial_state, n):
@@ -273,16 +310,31 @@ def consistent_initial_state(system, q0, qd0, z_guess):
     SingularConfigurationError
         Where Phi_z is singular on Newton's way from the guess, or at the solution (a dead
         position of q, where q' does not fix z').
+    InputError
+        Where an argument is of the wrong kind, size or not finite, or where the velocities
+        R q'(0) overflow float64.
     """
+    from .model import System
+
+    if not isinstance(system, System):
+        raise InputError(f"system: expected a System, got {type(system).__name__}")
     q0 = finite_array("q0", q0, size=system.f)
     qd0 = finite_array("qd0", qd0, size=system.f)
     z_guess = finite_array("z_guess", z_guess, size=system.r)
     s = solve_dependent(system, q0, z_guess)       # its own error names a singular guess
     try:
-        return InitialState(s, dependent_velocities(system, s, qd0))
+        with np.errstate(over="ignore", invalid="ignore"):
+            sd = dependent_velocities(system, s, qd0)
     except SingularConfigurationError:
+        dependent = dependent_constraints_error(system.jacobian(s), s)
+        if dependent is not None:
+            raise dependent from None
         raise SingularConfigurationError(
             f"q0: Phi_z is singular at q0 = {q0.tolist()} (a dead position of the independent coordinates), so "
             "q'(0) does not fix z'(0) through (9); start away from it, or give InitialState(s0, s0') with "
             "Phi_s s0' = 0 yourself (any formulation that needs no partition, NullSpace, can run from it)"
         ) from None
+    if not np.all(np.isfinite(sd)):
+        raise InputError(f"qd0: the velocities s' = R q'(0) of (20) overflow float64 at s = {s.tolist()}, "
+                         f"got qd0 = {qd0.tolist()}; give smaller velocities")
+    return InitialState(s, sd)

@@ -11,13 +11,13 @@ import math
 
 import numpy as np
 
-from .errors import SingularConfigurationError, at_time
+from .errors import InputError, SingularConfigurationError, at_time
 from .loading import first_use
 from .validation import one_of
 
 __all__ = ["solve_augmented", "solve_small", "solve_dense", "solve_many", "condition_number", "orthogonal_complement",
            "orthogonal_complement_many", "partition_condition", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
-           "NULL_SPACE_BASES"]
+           "NULL_SPACE_BASES", "NEAR_RANK_LOSS", "NEARLY_SINGULAR"]
 
 
 def solve_augmented(M, Phi, p1, p2, t=None):
@@ -30,6 +30,10 @@ def solve_augmented(M, Phi, p1, p2, t=None):
     try:
         x = solve_dense(K, np.concatenate((p1, p2)))
     except np.linalg.LinAlgError:
+        if not np.all(np.isfinite(K)):
+            raise SingularConfigurationError(
+                f"the augmented matrix of (12) is not finite{at_time(t)}: the state it was formed at is not "
+                "(a step whose stage overflowed, or a force that returned NaN before it)") from None
         raise SingularConfigurationError(
             f"the augmented matrix of (12) is singular{at_time(t)}: the constraints are dependent "
             "(cond(Phi_s) = inf: assembly branches meet, a change point) and no formulation of this library "
@@ -103,6 +107,13 @@ def solve_small(A, b):
         return np.array([e * b[0] - c * b[1], a * b[1] - d * b[0]]) / det
     return solve_dense(A, b)
 
+
+#: cond(Phi_s) above which a message says that Phi_s nearly loses rank, two assembly branches coming close (below
+#: it, a large Kantorovich number comes from a large |f|: a drift, at a well-conditioned configuration).
+NEAR_RANK_LOSS = 100.0
+#: cond(Phi_s), or |Phi_s| |Phi_z^-1| of a partition, above which a message about a run that could not go on names
+#: that matrix as nearly singular there.
+NEARLY_SINGULAR = 1e3
 
 #: |Phi_s| |Phi_z^-1| (:func:`partition_condition`) above which R of (20) is refused: a state is then
 #: within 1e-10 of a dead position, relative to the constraints' own scale, and what R gives there keeps
@@ -273,6 +284,13 @@ def null_space_basis(Phi, basis="svd", t=None):
         the constraints are dependent, assembly branches meet there, and no
         choice of coordinates passes such a bifurcation.
     """
+    try:
+        Phi = np.asarray(Phi, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"Phi: expected a matrix of numbers (r x n), got {type(Phi).__name__}") from None
+    if Phi.ndim != 2 or Phi.shape[0] >= Phi.shape[1] or not np.all(np.isfinite(Phi)):
+        raise InputError(f"Phi: expected a finite matrix with fewer rows than columns (r x n, r < n), got "
+                         f"{'shape ' + str(Phi.shape) if Phi.ndim != 2 or Phi.shape[0] >= Phi.shape[1] else 'non-finite entries'}")
     r, n = Phi.shape
     _, singular_values, Vt = np.linalg.svd(Phi)
     if singular_values[-1] < RANK_LIMIT * singular_values[0]:

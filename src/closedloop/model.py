@@ -30,7 +30,7 @@ from .codecache import cached_code
 from .errors import InputError
 from .forces import as_switched_force
 from .linalg import CONDITION_LIMIT, condition_number, orthogonal_complement, solve_augmented
-from .validation import finite_number
+from .validation import finite_number, shown
 
 __all__ = ["MultibodyModel", "DerivedModel", "derive", "System", "Dynamics", "ModelFunctions", "model_functions",
            "array_functions", "condition_number", "CONDITION_LIMIT"]
@@ -62,6 +62,29 @@ class Dynamics(NamedTuple):
     constraints: np.ndarray
     jacobian: np.ndarray
     jacobian_rate_product: np.ndarray
+
+
+def _iterable(value):
+    try:
+        iter(value)
+    except TypeError:
+        return False
+    return True
+
+
+def _expression(name, value):
+    """``value`` as a sympy expression, or an InputError naming ``name`` (a number is an expression too)."""
+    import sympy as sp
+
+    if isinstance(value, (str, bytes, bool)) or value is None:
+        raise InputError(f"{name}: expected a sympy expression, got {shown(value)} ({type(value).__name__})")
+    try:
+        expression = sp.sympify(value, strict=True)
+    except (sp.SympifyError, TypeError, ValueError):
+        raise InputError(f"{name}: expected a sympy expression, got {shown(value)} ({type(value).__name__})") from None
+    if not isinstance(expression, sp.Expr):
+        raise InputError(f"{name}: expected a sympy expression, got {shown(value)} ({type(value).__name__})")
+    return expression
 
 
 @dataclass(frozen=True)
@@ -110,10 +133,31 @@ class MultibodyModel:
         if self.time is None:
             object.__setattr__(self, "time", sp.Symbol("t"))
         for name in ("coordinates", "velocities", "constraints", "independent", "parameters"):
-            object.__setattr__(self, name, tuple(getattr(self, name)))
+            value = getattr(self, name)
+            if isinstance(value, (str, bytes)) or not _iterable(value):
+                raise InputError(f"{name}: expected a sequence of sympy {'expressions' if name == 'constraints' else 'Symbols'}, "
+                                 f"got {shown(value)}")
+            object.__setattr__(self, name, tuple(value))
+        for name in ("coordinates", "velocities", "independent", "parameters"):
+            wrong = [v for v in getattr(self, name) if not isinstance(v, sp.Symbol)]
+            if wrong:
+                raise InputError(f"{name}: must be sympy Symbols (made with sympy.symbols), got {shown(wrong[0])} "
+                                 f"({type(wrong[0]).__name__})")
+        if not isinstance(self.time, sp.Symbol):
+            raise InputError(f"time: must be a sympy Symbol, got {shown(self.time)} ({type(self.time).__name__})")
+        for name in ("kinetic_energy", "potential_energy"):
+            object.__setattr__(self, name, _expression(name, getattr(self, name)))
+        object.__setattr__(self, "constraints", tuple(_expression("constraints", c) for c in self.constraints))
         if self.generalized_forces is not None:
-            object.__setattr__(self, "generalized_forces", tuple(sp.sympify(self.generalized_forces)))
+            if isinstance(self.generalized_forces, (str, bytes)) or not _iterable(self.generalized_forces):
+                raise InputError(f"generalized_forces: expected a sequence of sympy expressions, one per coordinate, "
+                                 f"got {shown(self.generalized_forces)}")
+            object.__setattr__(self, "generalized_forces",
+                               tuple(_expression("generalized_forces", e) for e in self.generalized_forces))
         n, r = len(self.coordinates), len(self.constraints)
+        if r >= n:
+            raise InputError(f"constraints: {r} constraints on {n} coordinates leave no degree of freedom; a closed "
+                             "loop has fewer constraints than coordinates (r < n)")
         if len(self.velocities) != n:
             raise InputError(f"velocities: need one per coordinate ({n}), got {len(self.velocities)}")
         if len(set(self.coordinates) | set(self.velocities)) != 2 * n:
@@ -236,7 +280,6 @@ def _symbolic_equations(model):
     return M, p1, f, Phi, gamma, T, Pi
 
 
-@lru_cache(maxsize=None)
 def derive(model: MultibodyModel) -> DerivedModel:
     """Derive Lagrange's equations with multipliers (5)-(11); their numeric functions come with them.
 
@@ -253,10 +296,21 @@ def derive(model: MultibodyModel) -> DerivedModel:
     -------
     DerivedModel
     """
+    if not isinstance(model, MultibodyModel):
+        raise InputError(f"model: expected a MultibodyModel, got {type(model).__name__}")
+    return _derive(model)
+
+
+@lru_cache(maxsize=None)
+def _derive(model):
+    """:func:`derive`, once per model."""
     M, p1, f, Phi, gamma, _, _ = _symbolic_equations(model)
     functions = model_functions(model)
     return DerivedModel(model, M, p1, f, Phi, gamma, functions.dynamics, functions.constraint_functions,
                         functions.energies)
+
+
+derive.cache_info, derive.cache_clear = _derive.cache_info, _derive.cache_clear     # one cache, as before
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,15 @@ def _writable_folder(folder):
 
 
 def check_file(option, path):
-    """Refuse ``path`` for ``option`` unless a file can be written there; returns ``path``."""
+    """Refuse ``path`` for ``option`` unless a file can be written there; returns ``path``.
+
+    Besides the permissions, the folder is tried: a temporary file is opened in it, as
+    :func:`atomic_write` will, and removed.  Permissions alone do not tell (root may write
+    anywhere, yet not into /proc).
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"{option}: expected a file name, got {path!r}")
+    path = os.fspath(path)
     if path == "":
         raise InputError(f"{option}: expected a file name, got ''")
     if os.path.isdir(path) or path.endswith(os.sep):
@@ -47,6 +55,11 @@ def check_file(option, path):
         raise InputError(f"{option}: the folder {folder} is not writable")
     if os.path.exists(path) and not os.access(path, os.W_OK):
         raise InputError(f"{option}: {path} exists and is not writable")
+    try:
+        with tempfile.NamedTemporaryFile("wb", dir=folder, prefix=f".{os.path.basename(path)}.", suffix=".tmp"):
+            pass
+    except OSError as error:
+        raise InputError(f"{option}: cannot write {path}: {error.strerror or error}") from None
     return path
 
 
@@ -107,20 +120,22 @@ def _new_file_mode(path):
 
 
 @contextlib.contextmanager
-def atomic_write(path, binary=False):
+def atomic_write(path, binary=False, option=None):
     """``with atomic_write(path) as handle:`` write into ``handle``; ``path`` is replaced only at the end.
 
     Text is UTF-8. On any failure (an exception in the block, a full disk, an
     interrupt) the temporary file is removed and ``path`` keeps its previous
-    content; an OSError becomes :class:`WriteError` naming ``path``.
+    content; an OSError becomes :class:`WriteError` naming ``path`` (and the
+    command's ``option`` that named it, if given).
     """
+    where = f"{option}: " if option else ""
     folder, name = os.path.split(os.path.abspath(path))
     try:
         handle = tempfile.NamedTemporaryFile("wb" if binary else "w", dir=folder, prefix=f".{name}.",
                                              suffix=".tmp", delete=False,
                                              **({} if binary else {"encoding": "utf-8"}))
     except OSError as error:
-        raise WriteError(f"cannot write {path}: {error.strerror or error}") from None
+        raise WriteError(f"{where}cannot write {path}: {error.strerror or error}") from None
     try:
         with handle:
             yield handle
@@ -132,11 +147,11 @@ def atomic_write(path, binary=False):
         with contextlib.suppress(OSError):
             os.unlink(handle.name)
         if isinstance(error, OSError) and not isinstance(error, WriteError):
-            raise WriteError(f"cannot write {path}: {error.strerror or error}") from None
+            raise WriteError(f"{where}cannot write {path}: {error.strerror or error}") from None
         raise
 
 
-def save_figure(figure, path, dpi):
-    """Write a matplotlib figure as PNG, atomically."""
-    with atomic_write(path, binary=True) as handle:
+def save_figure(figure, path, dpi, option=None):
+    """Write a matplotlib figure as PNG, atomically (``option``: the command's option that named ``path``)."""
+    with atomic_write(path, binary=True, option=option) as handle:
         figure.savefig(handle, format="png", dpi=dpi)

@@ -27,7 +27,7 @@ from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
 from .model import MultibodyModel, System
 from .simulation import SimulationResult
-from .validation import finite_number, instance_of, one_of, shown
+from .validation import finite_number, flag, instance_of, one_of, shown
 
 __all__ = [
     "SliderCrankParameters",
@@ -371,6 +371,7 @@ def slider_crank_system(parameters=None, reading=DEFAULT_READING, torque=True, g
     """
     parameters = instance_of("parameters", SliderCrankParameters() if parameters is None else parameters,
                              SliderCrankParameters)
+    torque, gas = flag("torque", torque), flag("gas", gas)
     reading = get_reading(reading)
     values = parameters.as_dict()
     values.update(torque_mean=reading.torque_mean if torque else 0.0,
@@ -427,6 +428,7 @@ def initial_state(system, phi0, dphi0) -> InitialState:
     dead centre x_C = l2 - l1), then psi'(0), x_C'(0) follow from (9).
     |phi0| <= :data:`ANGLE_LIMIT` and |dphi0| <= :data:`SPEED_LIMIT`.
     """
+    instance_of("system", system, SliderCrankSystem)
     phi0 = finite_number("phi0", phi0, minimum=-ANGLE_LIMIT, maximum=ANGLE_LIMIT, unit="rad")
     dphi0 = finite_number("dphi0", dphi0, minimum=-SPEED_LIMIT, maximum=SPEED_LIMIT, unit="rad/s")
     p = system.parameters

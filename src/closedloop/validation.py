@@ -19,7 +19,7 @@ import numpy as np
 from .errors import InputError
 
 __all__ = ["finite_number", "positive_number", "integer", "positive_integer", "one_of", "finite_array", "instance_of",
-           "is_real", "shown", "shown_array"]
+           "flag", "is_real", "shown", "shown_array"]
 
 
 def shown(value):
@@ -153,6 +153,19 @@ def instance_of(name, value, kind):
     if not isinstance(value, kind):
         raise InputError(f"{name}: expected a {kind.__name__}, got {type(value).__name__}")
     return value
+
+
+def flag(name, value):
+    """``value`` as a bool, if it is True or False (numpy's too).
+
+    Raises
+    ------
+    InputError
+        ``"{name}: must be True or False, got {value}"`` (an array's truth is ambiguous, a text's always true).
+    """
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise InputError(f"{name}: must be True or False, got {shown(value)}")
 
 
 def output_times(t_eval, t_start, t_end):

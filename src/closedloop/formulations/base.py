@@ -78,10 +78,12 @@ class Formulation:
     8. Capability flags, read by the runners instead of type tests:
        ``guards_branch``: the formulation itself stops where it would leave
        its assembly branch (minimal coordinates), so the runner adds no branch
-       guard; ``guards_partition``: it stops by itself where det Phi_z = 0
-       (it divides by it, or checks it), so a method without dense output
-       (``"ode.dop853"``) may run it; ``gains``: the Baumgarte gains
-       ``(alpha, beta)``, or None.
+       guard but watches its turning points at dead positions
+       (:mod:`closedloop.simulation.watch`); ``guards_partition``: it uses
+       the model's partition (R of (20), Phi_z) and stops by itself where
+       det Phi_z = 0 (it divides by it, or checks it), so an integration that
+       can not go on names a nearly singular Phi_z as the cause; ``gains``:
+       the Baumgarte gains ``(alpha, beta)``, or None.
 
     A new formulation subclasses this class (or one of its subclasses) in one
     module of this package and adds itself to the registry in ``__init__``.

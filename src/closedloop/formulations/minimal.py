@@ -8,7 +8,8 @@ import numpy as np
 
 from ..errors import ConvergenceError, SingularConfigurationError, at_time
 from ..kinematics import solve_dependent
-from ..linalg import orthogonal_complement, partition_condition, solve_many, solve_small
+from ..linalg import (NEAR_RANK_LOSS, NEARLY_SINGULAR, condition_number, orthogonal_complement, partition_condition,
+                      solve_many, solve_small)
 from .base import Formulation
 
 __all__ = ["Minimal", "MinimalUnpacker", "minimal_accelerations", "CONTINUATION_PIECES", "CONTINUATION_STEP"]
@@ -70,14 +71,14 @@ class Minimal(Formulation):
     branch z(q) ends and the mechanism goes on along the other one.  Where an
     evaluation lands there or beyond it raises
     :class:`~closedloop.errors.SingularConfigurationError` (|Phi_s| |Phi_z^-1| above
-    :data:`~closedloop.linalg.CONDITION_LIMIT`, or Newton finds no z), as it does
-    when Newton's solution jumps to another assembly branch (det Phi_z changes
-    sign).  But when every evaluation stays short of it, q turns back on the
-    same branch, a motion of the q equation and not of the mechanism, and no
-    error is raised: on a rocking crank (l1 = 2, l2 = 1.5, no forces, 5 s)
-    RK45 at rtol 1e-6 and LSODA at 1e-4 to 1e-8 did so, with T + Pi off by
-    0.2 to 17 J of 274 J, while DOP853 raised.  Where q can reach a dead
-    position use :class:`NullSpace`, which passes it.
+    :data:`~closedloop.linalg.CONDITION_LIMIT`, R^T M R singular, or Newton finds
+    no z), as it does when Newton's solution jumps to another assembly branch
+    (det Phi_z changes sign).  Where every evaluation stays short of it, the
+    equation in q turns back on the same branch, a smooth motion of that
+    equation and not of the mechanism; the run's watch locates that turning
+    point on the step's interpolant, finds that the branch ends just beyond
+    it, and stops there with the same error (:mod:`closedloop.simulation.watch`).
+    Where q can reach a dead position use :class:`NullSpace`, which passes it.
     """
 
     name = "minimal"
@@ -109,7 +110,14 @@ class Minimal(Formulation):
         M, p1, _, Phi, gamma = system.dynamics(t, s, sd, mode)
         if R is None:
             R = orthogonal_complement(Phi, system.q_index, system.z_index, t)
-        qdd, c = minimal_accelerations(M, p1, Phi, gamma, R, system.z_index)
+        try:
+            qdd, c = minimal_accelerations(M, p1, Phi, gamma, R, system.z_index)
+        except np.linalg.LinAlgError:          # R^T M R singular to working precision: R is huge along one q
+            raise SingularConfigurationError(
+                f"the reduced mass R^T M R of the minimal coordinates is singular{at_time(t)} (|Phi_s| |Phi_z^-1| = "
+                f"{partition_condition(Phi, system.z_index):.3g} at {np.array2string(s, precision=6)}): q is at a "
+                "dead position of this partition, which q alone can not pass; use the NullSpace formulation"
+            ) from None
         return qdd, R, c
 
     def accelerations(self, system, t, s, sd, mode=None):
@@ -156,6 +164,19 @@ class MinimalUnpacker:
         pairs = [self(states[:, k], times[k]) for k in range(states.shape[1])]
         return np.array([p[0] for p in pairs]).T, np.array([p[1] for p in pairs]).T
 
+    def follow(self, q, t=None):
+        """The coordinates s at the independent coordinates ``q`` on this unpacker's branch, followed from its last
+        solution (by continuation where one Newton solve does not stay on the branch).
+
+        Raises
+        ------
+        SingularConfigurationError
+            Where the branch can not be followed to ``q``: it ends before (a dead
+            position of q lies between), or Newton's z lands on another branch.
+        """
+        f = self.system.f
+        return self.with_R(np.concatenate((np.asarray(q, dtype=float), np.zeros(f))), t)[0]
+
     def with_R(self, y, t=None):
         """``(s, R)`` at ``y``: the coordinates and R of (20) there (for the right-hand side)."""
         system = self.system
@@ -172,47 +193,68 @@ class MinimalUnpacker:
             ) from None
         R = orthogonal_complement(Phi, qi, zi, t)
         if side != self._side:
-            condition = partition_condition(system.jacobian(self._last_s), zi)
+            last = system.jacobian(self._last_s)
+            condition = max(partition_condition(last, zi), partition_condition(Phi, zi))
+            rank = max(condition_number(last), condition_number(Phi))
             moved = np.abs(y[:f] - self._last_s[qi]).max()
-            if moved / CONTINUATION_PIECES[-1] <= CONTINUATION_STEP:
-                why = ("so the path met a dead position of q, or Newton's z jumped to another branch near one; "
-                       "q alone can not pass it: use the NullSpace formulation (near a bifurcation, also "
-                       "tighten rtol and atol)")
+            if rank > NEAR_RANK_LOSS:
+                why = (f"at a trial stage {moved:.3g} of q away, where the other assembly branch comes close to this "
+                       f"one (cond(Phi_s) = {rank:.3g}: near a bifurcation, or at a change point); give a max_step, "
+                       "so that the steps stay short where the branches are near")
+            elif condition > NEARLY_SINGULAR:
+                why = ("so the path met a dead position of q (Phi_z nearly singular), which q alone can not pass: "
+                       "use the NullSpace formulation")
+            elif moved / CONTINUATION_PIECES[-1] <= CONTINUATION_STEP:
+                why = (f"but Phi_z is regular there, and so is Phi_s: Newton's z, at a trial stage {moved:.3g} of q "
+                       "away, landed on another branch; give a max_step, or use a formulation that does not "
+                       "solve for z (Orthogonal, NullSpace)")
             else:
                 why = (f"but a step moved q by {moved:.3g}, too far for Newton to follow z even in "
                        f"{CONTINUATION_PIECES[-1]} pieces, so the motion is too fast for the step; give a "
                        "max_step, or use a formulation that does not solve for z (Orthogonal, NullSpace)")
             raise SingularConfigurationError(
                 f"minimal coordinates left their assembly branch{at_time(t)}: det(Phi_z) changed sign "
-                f"(|Phi_s| |Phi_z^-1| was {condition:.3g} at the last state on the branch), {why}"
+                f"(|Phi_s| |Phi_z^-1| = {condition:.3g} at the last state on the branch or the one Newton found), "
+                f"{why}"
             )
         self._last_y, self._last_s, self._last_R = y.copy(), s, R
         return s, R
 
     def _solve(self, q, s_from, R_from, t):
-        """One Newton solve from the first-order prediction; ``(s, Phi, sign of det Phi_z)``."""
+        """One Newton solve from the first-order prediction: ``(s, Phi, sign of det Phi_z, far)``.
+
+        ``far``: Newton ended farther from the prediction than :data:`CONTINUATION_STEP` times
+        1 + |z|.  From a prediction that far off, Newton can land on a solution of f(q, z) = 0
+        with the same sign of det Phi_z but another turn of an angle (psi + 16 pi, seen when the
+        extra stages of a dense output were evaluated at a segment's end, from a warm start 2 rad
+        of q away), so such a solution is taken only where continuation can not reach q.
+        """
         qi, zi = self.system.q_index, self.system.z_index
         guess = s_from[zi] if R_from is None else s_from[zi] + R_from[zi] @ (q - s_from[qi])
         s, Phi = solve_dependent(self.system, q, guess, t, return_jacobian=True)
-        return s, Phi, np.sign(np.linalg.det(Phi[:, zi]))
+        far = np.max(np.abs(s[zi] - guess)) > CONTINUATION_STEP * (1.0 + np.max(np.abs(guess)))
+        return s, Phi, np.sign(np.linalg.det(Phi[:, zi])), far
 
     def _solve_on_branch(self, q, t):
         """Newton from the prediction, else continuation in small steps of q, kept on the branch.
 
         A long step (a fast crank) can carry the prediction into the basin of
-        another assembly branch although Phi_z is well conditioned all the way;
-        then q is followed from the last solution in small steps (continuation).
-        A real dead position of q is crossed by every path, so the branch check
-        of :meth:`with_R` still catches it.
+        another assembly branch although Phi_z is well conditioned all the way,
+        or Newton can end far from the prediction; then q is followed from the
+        last solution in small steps (continuation).  A real dead position of q
+        is crossed by every path, so the branch check of :meth:`with_R` still
+        catches it.  Where continuation does not reach q either (a trial stage
+        of a step far out, which the step's error test then rejects), Newton's
+        own solution on the branch's side is kept.
         """
+        direct = found = None
         try:
-            found = self._solve(q, self._last_s, self._last_R, t)
-            if found[2] == self._side:
-                return found
+            direct = found = self._solve(q, self._last_s, self._last_R, t)
+            if direct[2] == self._side and not direct[3]:
+                return direct[:3]
         except (ConvergenceError, SingularConfigurationError):
             if self._last_R is None:
                 raise
-            found = None
         for pieces in CONTINUATION_PIECES:
             try:
                 found = self._follow(q, pieces, t)
@@ -220,9 +262,11 @@ class MinimalUnpacker:
                 continue
             if found[2] == self._side:
                 return found
+        if direct is not None and direct[2] == self._side:
+            return direct[:3]
         if found is None:
-            return self._solve(q, self._last_s, self._last_R, t)  # raises the direct solve's error
-        return found
+            return self._solve(q, self._last_s, self._last_R, t)[:3]  # raises the direct solve's error
+        return found[:3]
 
     def _follow(self, q, pieces, t):
         """Continuation: from the last solution to q in ``pieces`` equal steps of q."""
@@ -230,14 +274,16 @@ class MinimalUnpacker:
         s_now, R_now = self._last_s, self._last_R
         for k in range(pieces):
             q_k = s_now[qi] + (q - s_now[qi]) / (pieces - k)
-            s_now, Phi, side = self._solve(q_k, s_now, R_now, t)
+            s_now, Phi, side, far = self._solve(q_k, s_now, R_now, t)
+            if far:
+                raise ConvergenceError("continuation: Newton ended far from the prediction")
             R_now = orthogonal_complement(Phi, qi, zi, t)
         return s_now, Phi, side
 
 
 #: Numbers of equal pieces Minimal's Newton continuation tries, in turn, when a single Newton solve
 #: from the prediction lands on another assembly branch (see MinimalUnpacker).
-CONTINUATION_PIECES = (8, 64)
+CONTINUATION_PIECES = (8, 64, 512, 4096)
 #: Longest piece of q (radians or metres) on which the continuation's Newton solve is trusted: a
 #: change of branch on shorter pieces is a dead position of q; on longer ones, a step too long.
 CONTINUATION_STEP = 0.05

@@ -101,7 +101,13 @@ def project_state(system, s, sd, t=None, tolerance=NEWTON_TOLERANCE, max_iterati
     SingularConfigurationError
         If Phi_s loses rank on the way.
     """
-    s = np.array(s, dtype=float)
+    try:
+        s, sd = np.array(s, dtype=float), np.array(sd, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"s, sd: expected {system.n} numbers each, got {type(s).__name__} and "
+                         f"{type(sd).__name__}") from None
+    if s.shape != (system.n,) or sd.shape != (system.n,):
+        raise InputError(f"s, sd: expected {system.n} numbers each, got shapes {s.shape} and {sd.shape}")
 
     def correct(s, constraint_values, Phi):          # s <- s - Phi^T (Phi Phi^T)^{-1} f: no step test
         s -= _minimum_norm(Phi, constraint_values, t, s)

@@ -52,6 +52,7 @@ from .. import hermite
 from ..errors import IntegrationError
 from ..methods import COMPILED_METHOD
 from . import dop853_code
+from .switching import CHOSEN_SIDE
 
 __all__ = ["METHOD", "ALLOWED_OPTIONS", "REJECTION_FACTOR", "STEP_CONTROL_BETA", "integrate_segment", "Segment", "step_stages",
            "continuous_extension", "continuous_extensions", "interpolate"]
@@ -149,7 +150,7 @@ class BudgetExceeded(Exception):
 
 def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, outputs=None,
                       outputs_increasing=False, first_step=0.0, max_step=0.0, nsteps=DEFAULT_NSTEPS,
-                      max_nfev=math.inf, max_steps=math.inf):
+                      max_nfev=math.inf, max_steps=math.inf, on_step=None):
     """Integrate ``y' = rhs(t, y)`` from ``t0`` to ``t_end`` or the first switch.
 
     Parameters
@@ -183,6 +184,10 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
         ``max_steps_reached`` True, which tells the two apart.
     max_nfev : float, optional
         Right-hand-side evaluations allowed; beyond, :class:`BudgetExceeded`.
+    on_step : callable, optional
+        ``on_step(t, y)`` after every accepted step that ends before the switch (the
+        caller's checks along the path); an exception it raises stops the code, and is
+        raised here.
 
     Returns
     -------
@@ -202,14 +207,14 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                                                        first_step=min(first_step, t_end - t0),
                                                        increasing=outputs_increasing)
     watch = _StepWatch(switching, directions, t0, y0, first_step, failure=failure, dense=dense,
-                       max_steps=max_steps, t_end=t_end)
+                       max_steps=max_steps, t_end=t_end, on_step=on_step)
     if t_end > t0:
         t_code, y_code, code = dop853_code.dopri853(      # scipy's ode(counted) "dop853", but for fac1
             counted, t0, y0, t_end, rtol=rtol, atol=atol, nsteps=nsteps,
             first_step=min(watch.last_step, t_end - t0), max_step=max_step, solout=watch.solout,
             dfactor=REJECTION_FACTOR, beta=STEP_CONTROL_BETA)
         if failure:
-            raise _with_path(failure[0], watch, getattr(failure[0], "t", None))
+            raise _with_failed_at(failure[0], getattr(failure[0], "t", None))
         if watch.hit is not None:
             return _stopped_at_switch(watch, counted, switching, directions, rtol, atol, failure, evaluations,
                                       y0.size)
@@ -218,17 +223,17 @@ def integrate_segment(rhs, t0, y0, t_end, *, rtol, atol, switching, directions, 
                 f"ode.dop853 failed at t = {t_code:.6g} s: {_reason(code, nsteps)}. "
                 "Try an implicit method (Radau, BDF), looser tolerances, or smaller Baumgarte gains")
             error.return_code, error.t, error.max_steps_reached = code, float(t_code), False
-            raise _with_path(error, watch)
+            error.last_call = _LATEST[0]           # where the failing attempts evaluated the right-hand side
+            raise _with_failed_at(error)
         watch.last_t, watch.last_y = t_end, np.array(y_code, dtype=float)
     if dense is not None:
         dense.finish(watch.last_y)          # an output at t_end beyond the last step end by round-off
     return watch.segment(t_end, watch.last_y.copy(), None, evaluations, y0.size)
 
 
-def _with_path(error, watch, failed_at=None):
-    """``error`` carrying the step ends reached so far (``path_times``, ``path_states``) and the time of
-    the call that failed (``failed_at``), for the caller's checks."""
-    error.path_times, error.path_states = np.array(watch.end_times), np.array(watch.ends).T
+def _with_failed_at(error, failed_at=None):
+    """``error`` carrying the time of the call that failed (``failed_at``, None for a failure at a step end),
+    for the caller's checks along the path."""
     error.failed_at = failed_at
     return error
 
@@ -268,6 +273,8 @@ def _counting(rhs, max_nfev, failure, calls=None):
     recording = calls is not None
     if recording:
         add_time, add_values = calls.times.append, calls.values.extend
+    latest = _LATEST                                # the time of the last call, for a failure's message
+    latest[0] = math.nan
 
     def record(on):
         nonlocal recording
@@ -276,6 +283,7 @@ def _counting(rhs, max_nfev, failure, calls=None):
     def counted(t, y):
         nonlocal count
         count += 1
+        latest[0] = t
         try:
             if count > max_nfev:
                 raise BudgetExceeded(t)
@@ -289,6 +297,10 @@ def _counting(rhs, max_nfev, failure, calls=None):
         return f
 
     return counted, lambda: count, record
+
+
+#: The time of the last right-hand side of the segment under way (one list: no allocation per call).
+_LATEST = [math.nan]
 
 
 def _failed_at(t, error):
@@ -312,14 +324,19 @@ class _StepWatch:
     crossed, or None; ``steps, ends, end_times``: every step (the ends are also the
     outputs without ``dense``); ``dense``: the requested outputs, or None.  The
     ``max_steps``-th accepted step that ends before ``t_end`` (or a step beyond it) stops
-    the code with an IntegrationError in ``failure``.
+    the code with an IntegrationError in ``failure``; so does an exception of ``on_step(t, y)``,
+    called after every accepted step that does not cross.
     """
 
     def __init__(self, switching, directions, t0, y0, first_step, failure, dense=None, max_steps=math.inf,
-                 t_end=math.inf):
+                 t_end=math.inf, on_step=None):
         self.switching, self.directions, self.failure = switching, directions, failure
-        self.max_steps, self.t_end = max_steps, t_end
-        self.last_t, self.last_y, self.last_g = t0, y0.copy(), list(switching(t0, y0))
+        self.max_steps, self.t_end, self.on_step = max_steps, t_end, on_step
+        # an exact zero at the start counts as on the side the segment runs on (switching.on_chosen_side): a
+        # crossing in the first step is then located there, not at t0
+        self.last_t, self.last_y = t0, y0.copy()
+        self.last_g = [value if value != 0.0 else (CHOSEN_SIDE if direction < 0 else -CHOSEN_SIDE)
+                       for value, direction in zip(switching(t0, y0), directions)]
         self.last_step, self.hit, self.dense = first_step, None, dense
         self.steps, self.ends, self.end_times = [], [self.last_y], [t0]
 
@@ -330,7 +347,11 @@ class _StepWatch:
             if self.dense is not None:
                 self.dense.start(t)
             return 0
-        g = list(self.switching(t, y))
+        try:
+            g = list(self.switching(t, y))
+        except Exception as error:           # the compiled caller cannot propagate it
+            self.failure.append(error)
+            return -1
         for b, a, direction in zip(self.last_g, g, self.directions):
             if a != b and ((direction >= 0 and b <= 0.0 <= a) or (direction <= 0 and b >= 0.0 >= a)):
                 self.hit = (t, y.copy(), g)
@@ -349,6 +370,12 @@ class _StepWatch:
         self.ends.append(y)
         self.end_times.append(t)
         self.last_t, self.last_y, self.last_g = t, y, g
+        if self.on_step is not None:
+            try:
+                self.on_step(t, y)
+            except Exception as error:       # the compiled caller cannot propagate it
+                self.failure.append(error)
+                return -1
         if self.dense is not None:
             try:
                 self.dense.step(ta, ya, t, y)
@@ -372,7 +399,7 @@ class _StepWatch:
         step_times, step_ends = np.array(self.end_times), np.array(self.ends).reshape(len(self.ends), size).T
         t, y = (step_times, step_ends) if self.dense is None else self.dense.outputs(size)
         if self.failure:                     # a right-hand side of the outputs' extra stages failed
-            raise _with_path(self.failure[0], self, getattr(self.failure[0], "t", None))
+            raise _with_failed_at(self.failure[0], getattr(self.failure[0], "t", None))
         return Segment(t, y, t_stop, y_stop, event, evaluations(), self.last_step, self.steps, step_ends,
                        step_times)
 

@@ -3,16 +3,15 @@
 The compiled code has no events and no dense output; :func:`closedloop.simulation.dop853.integrate_segment`
 adds the switch location, and this runner adds what :func:`closedloop.simulate` needs around it:
 budgets, outputs and the end state (shared with the solve_ivp runner through
-:class:`~closedloop.simulation.run.Run`), and a partition check in place of the branch guard.
+:class:`~closedloop.simulation.run.Run`), and every accepted step handed to the run's watch
+(:mod:`~closedloop.simulation.watch`: change points, the branch guard, dead positions).
 """
 
 from __future__ import annotations
 
-import numpy as np
-
-from ..errors import ClosedLoopError, IntegrationError, SingularConfigurationError
-from ..formulations.closed_form import partition_determinant
+from ..errors import ClosedLoopError, IntegrationError
 from . import dop853
+from .options import stop_when_value
 
 __all__ = ["segment"]
 
@@ -33,7 +32,7 @@ def _switching_values(run, unpack):
             return ()
         s, sd = unpack(y, t)
         values = switching_values(t, s, sd) if switching_values is not None else []
-        return values + [stop_when(t, s, sd)] if stop_when is not None else values
+        return values + [stop_when_value(stop_when, t, s, sd)] if stop_when is not None else values
 
     return switching
 
@@ -42,7 +41,7 @@ def segment(run, t0, s0, sd0, mode):
     """Integrate on branch ``mode`` from ``t0`` until t_end or the next switch: a SegmentEnd."""
     options = run.options
     y0, unpack, rhs = run.start_segment(s0, sd0, mode)
-    run.path.start(t0, y0, s0)
+    run.path.start(t0, y0, s0, mode)
     directions = [-1.0 if on else 1.0 for on in mode[:len(run.names)]]
     if options.stop_when is not None:
         directions.append(1.0)
@@ -55,12 +54,20 @@ def segment(run, t0, s0, sd0, mode):
             switching=_switching_values(run, unpack), directions=directions, outputs=run.outputs.due(t0),
             outputs_increasing=True,
             max_nfev=run.evaluations_left(), max_steps=options.max_steps - len(run.step_sizes),
-            first_step=first_step if first_step is not None else run.last_step_size, **solver_options)
+            first_step=first_step if first_step is not None else run.last_step_size, on_step=run.path.record,
+            **solver_options)
     except dop853.BudgetExceeded as exceeded:
+        run.path.failed()
         raise run.budget_error(exceeded.t) from None
     except ClosedLoopError as error:                # a change point passed earlier is the real cause
-        if hasattr(error, "path_times"):
-            run.path.check(error.path_times, error.path_states, failed_at=error.failed_at)
+        run.path.failed(getattr(error, "failed_at", None))
+        if run.path.error is None and not getattr(error, "max_steps_reached", False):
+            times = [getattr(error, name, None) for name in ("t", "failed_at", "last_call")]
+            times = [t for t in times if t is not None and t == t]
+            force = run.path.force_clause_before(max(times)) if times else ""
+            if force:                                # a force that is not finite is the cause: named
+                raise IntegrationError(f"ode.dop853 failed at t = {max(times):.6g} s{force}; end the run before "
+                                       f"t = {max(times):.6g} s, or mend the force") from None
         if getattr(error, "max_steps_reached", False):  # simulate's max_steps, not the compiled code's nsteps
             raise IntegrationError(                 # (the watch counted this segment's steps only)
                 f"ode.dop853 reached max_steps = {options.max_steps} at t = {error.t:.6g} s of t_end = "
@@ -68,41 +75,11 @@ def segment(run, t0, s0, sd0, mode):
                 "or raise max_steps") from None
         raise
     run.nfev += result.nfev
-    run.path.check(result.step_times, result.step_ends)
+    run.path.end(result.t_stop if result.event is not None else None, result.y_stop)
     run.last_step_size = result.last_step
     run.step_starts.extend(result.step_times[:len(result.steps)].tolist())
     run.step_sizes.extend(result.steps)
     run.t_reached = result.t_stop
     run.check_finite(result.t, result.y)
-    if not run.formulation.guards_branch:            # else the formulation guards it itself
-        _check_partition(run, result)
     run.store_segment(result.t, result.y, s0, mode, t0)
     return run.end_of_segment(result.t_stop, result.y_stop, unpack, result.event)
-
-
-def _check_partition(run, result):
-    """ode.dop853 has no events for det Phi_z: refuse a path whose step ends straddle a zero.
-
-    R of (20), and so ClosedForm and Orthogonal, does not exist where det Phi_z = 0;
-    a step that jumps across such a point has left the configurations R describes.
-    """
-    system = run.system
-    determinant = partition_determinant(system)            # generated once per system
-    if determinant is not None:
-        det = determinant(result.step_ends[:system.n])
-    else:
-        Phi_z = system.constraints_and_jacobian_many(result.step_ends[:system.n])[1][:, system.z_index]
-        det = np.linalg.det(np.moveaxis(Phi_z, 2, 0))
-    values = det.tolist()                              # a few step ends: Python floats, no numpy calls
-    if all(v > 0.0 for v in values) or all(v < 0.0 for v in values):   # one sign along the whole segment
-        return
-    flips = np.nonzero(np.sign(det[1:]) * np.sign(det[:-1]) < 0)[0]
-    if flips.size:
-        times = result.step_times
-        k = int(flips[0])
-        raise SingularConfigurationError(
-            f"det Phi_z changed sign between t = {times[k]:.6g} s and t = {times[k + 1]:.6g} s with "
-            f"{run.options.method_name}: the path crossed a configuration where R of (20) does not exist, "
-            "and this method cannot locate it or apply the branch guard; use a solve_ivp method, which "
-            f"has the branch guard, with {type(run.formulation).__name__} or with the NullSpace formulation"
-        )

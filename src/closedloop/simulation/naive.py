@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ClosedLoopError
 from ..methods import solver_class
 from .result import Piece
 
@@ -45,31 +46,57 @@ def _capped_message(run, solver, changes):
 
 
 def integrate_naive(run, t0, s0, sd0):
-    """One integration of ``run`` with naive switching; None when t_end is reached, else an error message."""
+    """One integration of ``run`` with naive switching; None when t_end is reached, else an error message.
+
+    Every accepted step goes to the run's watch (:mod:`~closedloop.simulation.watch`), as on the other runners.
+    """
     system, formulation, options = run.system, run.formulation, run.options
     unpack = formulation.unpacker(system)
     unpack.seed(s0)
     changes = np.zeros(len(run.names), dtype=int)
+    y0 = formulation.pack(system, s0, sd0)
+    run.path.start(t0, y0, s0, None)           # the force's branch is chosen at every evaluation: no one mode
     # the formulation's integrator: Projected's with its projection
-    solver = solver_class(formulation.integrator(system, options.method))(_rhs_choosing_branch(run, unpack, changes), t0, formulation.pack(system, s0, sd0),
-                          run.t_end, rtol=options.rtol, atol=options.atol, **options.solver_options)
+    solver = solver_class(formulation.integrator(system, options.method))(
+        _rhs_choosing_branch(run, unpack, changes), t0, y0, run.t_end, rtol=options.rtol, atol=options.atol,
+        **options.solver_options)
     t_eval = options.t_eval
     if t_eval is None:
         times, states = [t0], [solver.y.copy()]
     else:
         first = t_eval[t_eval <= t0]
         times, states = list(first), [solver.y.copy()] * first.size
-    message = None
+    try:
+        message = _steps(run, solver, changes, times, states)
+    except ClosedLoopError:
+        run.path.failed(solver.t)                # a change point passed before is the real cause
+        raise
+    if message is None:
+        run.path.end()
+    else:
+        run.path.failed()
+    t = np.array(times)
+    y = np.array(states).reshape(t.size, -1).T
+    outputs = formulation.unpacker(system)
+    outputs.seed(s0)
+    pairs = [outputs(y[:, k], t[k]) for k in range(t.size)]
+    run.outputs.pieces.append(Piece(t, np.array([p[0] for p in pairs]).T, np.array([p[1] for p in pairs]).T,
+                                    None, None, None))
+    return message
+
+
+def _steps(run, solver, changes, times, states):
+    """Step ``solver`` to t_end, keeping the outputs in ``times``, ``states``; None, or why it stopped early."""
+    options, t_eval = run.options, run.options.t_eval
     while solver.status == "running":
         if options.max_nfev is not None and run.nfev >= options.max_nfev:
-            message = _capped_message(run, solver, changes)
-            break
+            return _capped_message(run, solver, changes)
         solver.step()
         if solver.status == "failed":
-            message = (f"{options.method_name} failed at t = {solver.t:.6g} s with naive switching "
-                       f"(step size {solver.step_size:.3g} s); use switching='events'")
-            break
+            return (f"{options.method_name} failed at t = {solver.t:.6g} s with naive switching "
+                    f"(step size {solver.step_size:.3g} s); use switching='events'")
         run.record_step(solver.t_old, solver.t)
+        run.path.record(solver.t, solver.y.copy())
         if t_eval is None:
             times.append(solver.t)
             states.append(solver.y.copy())
@@ -79,14 +106,6 @@ def integrate_naive(run, t0, s0, sd0):
                 times.extend(inside)
                 states.extend(np.atleast_2d(solver.dense_output()(inside).T))
         if len(run.step_sizes) >= options.max_steps and solver.status == "running":
-            message = (f"naive switching reached max_steps = {options.max_steps} at t = {solver.t:.6g} s of "
-                       f"{run.t_end:g} s (step size {solver.step_size:.3g} s); use switching='events'")
-            break
-    t = np.array(times)
-    y = np.array(states).reshape(t.size, -1).T
-    outputs = formulation.unpacker(system)
-    outputs.seed(s0)
-    pairs = [outputs(y[:, k], t[k]) for k in range(t.size)]
-    run.outputs.pieces.append(Piece(t, np.array([p[0] for p in pairs]).T, np.array([p[1] for p in pairs]).T,
-                                    None, None, None))
-    return message
+            return (f"naive switching reached max_steps = {options.max_steps} at t = {solver.t:.6g} s of "
+                    f"{run.t_end:g} s (step size {solver.step_size:.3g} s); use switching='events'")
+    return None

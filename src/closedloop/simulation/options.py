@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import math
 import types
 from dataclasses import dataclass
@@ -13,11 +14,13 @@ from ..formulations import Formulation
 from ..kinematics import initial_state_arrays
 from ..linalg import null_space_basis
 from ..methods import IMPLICIT_METHODS, SOLVER_METHODS
-from ..validation import finite_array, finite_number, is_real, output_times, positive_integer, shown, shown_array
+from ..model import System
+from ..validation import (finite_array, finite_number, flag, instance_of, is_real, output_times, positive_integer,
+                          shown, shown_array)
 from . import dop853
 from .switching import MIN_PROGRESS, no_progress
 
-__all__ = ["RunOptions", "run_options", "methods_taking", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT",
+__all__ = ["RunOptions", "run_options", "methods_taking", "stop_when_value", "SOLVER_OPTIONS", "simulate_parameters", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT",
            "MAX_STEPS", "INITIAL_TOLERANCE", "IMPLICIT_METHODS"]
 
 # The methods simulate() accepts by name (solve_ivp's, and "ode.dop853", the compiled DOP853 of
@@ -143,7 +146,7 @@ def methods_taking(formulation, switching="events"):
             formulation.check_method(name)
         except InputError:
             continue
-        if name != dop853.METHOD or (switching != "naive" and formulation.guards_partition):
+        if name != dop853.METHOD or switching != "naive":
             names.append(name)
     return tuple(names)
 
@@ -168,24 +171,61 @@ def _check_method(formulation, method, switching, options):
     formulation.check_method(method)
     if switching not in SWITCHING:
         raise InputError(f"switching: unknown {switching!r}; choose one of {', '.join(SWITCHING)}")
-    if method == dop853.METHOD:
-        if switching == "naive":
-            raise InputError(f"method: switching='naive' runs on solve_ivp; choose one of "
-                             f"{', '.join(SOLVER_METHODS[:-1])}")
-        if not formulation.guards_partition:
-            raise InputError(
-                f"method: {method} has no dense output for the branch guard, so it takes only formulations "
-                "that cannot cross det Phi_z = 0 unnoticed (ClosedForm, Orthogonal, Minimal); use a "
-                f"solve_ivp method with {type(formulation).__name__}"
-            )
+    if method == dop853.METHOD and switching == "naive":
+        raise InputError(f"method: switching='naive' runs on solve_ivp; choose one of "
+                         f"{', '.join(SOLVER_METHODS[:-1])}")
     reserved = set(_RESERVED) & set(options)
     if reserved:
         raise InputError(f"solver options: {sorted(reserved)} are managed by simulate()")
-    if method == dop853.METHOD:
-        unknown = set(options) - set(dop853.ALLOWED_OPTIONS)
-        if unknown:
-            raise InputError(f"solver options: {sorted(unknown)} are not taken by {method}; it takes "
-                             f"{', '.join(dop853.ALLOWED_OPTIONS)}")
+    _check_option_names(method, options)
+
+
+#: The solver options each method takes through simulate()'s ``**options`` (solve_ivp's, and the compiled
+#: DOP853's own); an OdeSolver subclass given as the method takes any.
+SOLVER_OPTIONS = {
+    **{name: ("first_step", "max_step") for name in ("RK45", "RK23", "DOP853")},
+    **{name: ("first_step", "max_step", "jac", "jac_sparsity") for name in ("Radau", "BDF")},
+    "LSODA": ("first_step", "max_step", "min_step", "jac", "lband", "uband"),
+    dop853.METHOD: dop853.ALLOWED_OPTIONS,
+}
+
+
+def simulate_parameters():
+    """The names of simulate()'s own keyword parameters, from its signature."""
+    import inspect
+
+    from . import simulate
+
+    return tuple(name for name, parameter in inspect.signature(simulate).parameters.items()
+                 if parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY))
+
+
+def _check_option_names(method, options):
+    """Refuse a keyword that is neither simulate()'s nor a solver option of ``method``, naming the close match.
+
+    A misspelt option (``max_stp``) went on to solve_ivp, which warned and ignored it: the run was not the
+    one asked for.
+    """
+    if not isinstance(method, str):
+        return                                   # an OdeSolver of one's own: its options are its own
+    taken = SOLVER_OPTIONS[method]
+    unknown = [name for name in options if name not in taken]
+    if not unknown:
+        return
+    name = sorted(unknown)[0]
+    own = simulate_parameters()
+    if name in SOLVER_OPTIONS_OF_ANY:
+        others = [other for other, names in SOLVER_OPTIONS.items() if name in names]
+        first = f"{name}: not a solver option of {method} (only of {', '.join(others)});"
+    else:
+        guess = difflib.get_close_matches(name, own + taken, n=1)
+        first = f"{name}: unknown keyword of simulate()" + (f"; did you mean {guess[0]!r}?" if guess else ";")
+    raise InputError(f"{first} simulate() takes {', '.join(own)}, and for {method} the solver options "
+                     f"{', '.join(taken)}")
+
+
+#: Every solver option some method takes.
+SOLVER_OPTIONS_OF_ANY = tuple(sorted({name for names in SOLVER_OPTIONS.values() for name in names}))
 
 
 def _check_initial_state(system, initial_state):
@@ -233,6 +273,26 @@ def _check_inertia(system, s0, sd0, Phi0):
         )
 
 
+def stop_when_value(stop_when, t, s, sd):
+    """``stop_when(t, s, sd)`` as a float, or an InputError that names the time where it is no finite number.
+
+    A NaN never crosses zero, so a run would go on with stop_when silently off; a bool
+    crosses zero at every False; an exception inside it would end the run with no time.
+    """
+    try:
+        value = stop_when(t, s, sd)
+    except Exception as error:
+        raise InputError(f"stop_when: stop_when(t, s, sd) raised {type(error).__name__} at t = {t:.6g} s: "
+                         f"{error}") from None
+    number = value.item() if isinstance(value, np.ndarray) and value.size == 1 else value
+    if isinstance(number, np.generic):
+        number = number.item()
+    if not is_real(number) or not math.isfinite(number):
+        raise InputError(f"stop_when: must return a finite number (it stops the run where it crosses zero upward), "
+                         f"got {shown(value)} at t = {t:.6g} s")
+    return float(number)
+
+
 def _check_steps(solver_options):
     """The step options: ``max_step`` (> 0, inf for none) and ``first_step`` (> 0) as floats [s], ``nsteps``."""
     checked = dict(solver_options)
@@ -253,8 +313,11 @@ def run_options(system, initial_state, formulation, *, t_start, t_end, method, r
                 stop_when, sticking_resolution, max_segments, switching, max_nfev, max_steps, work, branch_limit,
                 solver_options):
     """Check every argument of :func:`simulate` (raising InputError) and return them as RunOptions."""
+    instance_of("system", system, System)
     t_start, t_end, rtol, atol, sticking_resolution, branch_limit = _check_times(
         t_start, t_end, rtol, atol, sticking_resolution, branch_limit)
+    multipliers, work = flag("multipliers", multipliers), flag("work", work)
+    max_segments = positive_integer("max_segments", max_segments)
     _check_method(formulation, method, switching, solver_options)
     solver_options = _check_steps(solver_options)
     max_nfev = None if max_nfev is None else positive_integer("max_nfev", max_nfev)
@@ -267,8 +330,10 @@ def run_options(system, initial_state, formulation, *, t_start, t_end, method, r
         name = "stop_when" if stop_when is not None else "work"
         raise InputError(f"{name}: a run with switching='naive' neither stops early nor integrates the work; "
                          "use switching='events'")
-    if stop_when is not None and not callable(stop_when):
-        raise InputError("stop_when: expected a callable stop_when(t, s, sd) -> float")
+    if stop_when is not None:
+        if not callable(stop_when):
+            raise InputError(f"stop_when: expected a callable stop_when(t, s, sd) -> float, got {shown(stop_when)}")
+        stop_when_value(stop_when, t_start, initial_state.s, initial_state.sd)     # refused here, not mid-run
     return RunOptions(t_start=t_start, t_end=t_end, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
                       multipliers=bool(multipliers), stop_when=stop_when, sticking_resolution=sticking_resolution,
                       max_segments=max_segments, switching=switching, max_nfev=max_nfev, max_steps=max_steps,

@@ -9,6 +9,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..validation import one_of
+
 __all__ = ["SimulationResult", "SwitchEvent", "Piece", "Outputs", "multipliers", "residual_warnings"]
 
 
@@ -166,11 +168,11 @@ class SimulationResult:
 
     def coordinate(self, name):
         """The row of ``s`` for the coordinate called ``name``."""
-        return self.s[self.coordinate_names.index(name)]
+        return self.s[self.coordinate_names.index(one_of("name", name, self.coordinate_names))]
 
     def velocity(self, name):
         """The row of ``sd`` for the coordinate called ``name``."""
-        return self.sd[self.coordinate_names.index(name)]
+        return self.sd[self.coordinate_names.index(one_of("name", name, self.coordinate_names))]
 
 
 class Piece(NamedTuple):

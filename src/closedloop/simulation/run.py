@@ -15,8 +15,9 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import IntegrationError, SingularConfigurationError
-from . import change_points
+from ..validation import shown_array
 from . import switching as rule
+from . import watch
 from .options import IMPLICIT_METHODS
 from .result import Outputs, SwitchEvent
 
@@ -60,11 +61,12 @@ class Run:
         self.steps_exhausted = False
         self.work_done = 0.0
         self.partition_singularities = []
+        self.overflows = []               # (t, message) of the right-hand side's overflows in the current segment
         self.stopped_at = None
         self.switch_events, self.sticking_intervals = [], []
         self._fast_accelerations = {}     # the formulation's switch_accelerations per branch
-        # The step ends of the current segment, checked for change points.
-        self.path = change_points.PathWatch(system, formulation, options)
+        # Every accepted step end, checked as the run goes (change points, branch guard, dead positions).
+        self.path = watch.PathWatch(system, formulation, options, self)
 
     # -- what every runner shares -------------------------------------------------
     def record_step(self, start, end):
@@ -133,8 +135,25 @@ class Run:
         which = [name for name, v in zip(names, y_out[:, k]) if not np.isfinite(v)]
         raise IntegrationError(
             f"the state became non-finite at t = {t_out[k]:.6g} s with {self.options.method_name} "
-            f"({', '.join(which)} = {y_out[names.index(which[0]), k]}); {self.advice()}"
+            f"({', '.join(which)} = {y_out[names.index(which[0]), k]}){self.path.force_clause_before(t_out[k])}; "
+            f"{self.advice()}"
         )
+
+    def force_clause(self, t, s, sd, mode=None):
+        """``"; the force returned [nan ...] at t = ... s at a finite state ..."`` where the system's forces are not
+        finite at ``(t, s, s')`` (a finite state), else ``""``: what a failed integration names as its cause."""
+        s, sd = np.asarray(s, dtype=float), np.asarray(sd, dtype=float)
+        if not (np.all(np.isfinite(s)) and np.all(np.isfinite(sd))):
+            return ""
+        try:
+            with np.errstate(all="ignore"):
+                tau = self.system.applied_forces(t, s, sd, mode)
+        except Exception as error:
+            return f"; the force raised {type(error).__name__} at t = {t:.6g} s: {error}"
+        if np.all(np.isfinite(tau)):
+            return ""
+        return (f"; the force returned {shown_array(tau)} at t = {t:.6g} s, at a finite state (s = {shown_array(s)}, "
+                f"s' = {shown_array(sd)}): a force must return finite numbers wherever the run goes")
 
     def overflow_error(self, error):
         """The IntegrationError for an arithmetic overflow (``error``) outside the integrator's steps."""
@@ -183,14 +202,17 @@ class Run:
         return tuple(rule.switching_rate(h, t, s, sd, self._accelerations(t, s, sd, branch), now, s_ahead=ahead)
                      for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
 
-    def decide(self, t, s, sd, mode, i):
+    def decide(self, t, s, sd, mode, i, stalled=False):
         """The branch of switch i at a state on its surface: (new mode, action).
 
-        Where the rates vanish on both branches (a degenerate contact) the branches'
+        Where the rates vanish on both branches (a degenerate contact), or where the
+        segment that the rates chose stopped at once (``stalled``: the motion they
+        point to stays within the integration's round-off of the surface and comes
+        back to it, as a slider at rest a hair past a dead centre does), the branches'
         own motions over :data:`~closedloop.simulation.switching.PROBE_TIME` decide.
         """
         off, on = self.side_rates(t, s, sd, mode, i)
-        if rule.uninformative(off, on, _scale(s, sd)):
+        if stalled or rule.uninformative(off, on, _scale(s, sd)):
             off, on = (rule.probe(self.force.switching_functions, lambda time, q, qd, b=branch: self._accelerations(
                 time, q, qd, b), t, s, sd)[i] / rule.PROBE_TIME
                 for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
@@ -238,7 +260,7 @@ class Run:
             if end.event == len(self.names):                 # stop_when fired
                 self.stopped_at = t
                 return
-            mode, action = self.decide(t, s, sd, mode, end.event)
+            mode, action = self.decide(t, s, sd, mode, end.event, stalled=stalls > 0)
             self.switch_events.append(SwitchEvent(t, self.names[end.event], action))
             if action == "stuck":
                 stuck = end.event

@@ -1,18 +1,8 @@
-"""One segment of a run with scipy.integrate.solve_ivp, with events and the branch guard.
+"""One segment of a run with scipy.integrate.solve_ivp, with events at the switches.
 
-Branch guard
-------------
-Where det Phi_z of the model's partition changes sign, a redundant-coordinate
-formulation either passes a dead position (Phi_s keeps full rank: fine) or
-jumps to another assembly branch near a configuration where Phi_s nearly loses
-rank.  At every such crossing the runner computes the Kantorovich number
-``h = sigma_max(Phi_s) |f| / sigma_min(Phi_s)^2``: Newton's method from the
-state converges to a unique nearby solution when h < 1/2 (sigma_max standing
-for the Lipschitz constant of Phi_s, which it matches for constraints made of
-lengths times sines and cosines).  Above the run's ``branch_limit`` (default
-:data:`~closedloop.simulation.options.BRANCH_LIMIT`) the state is no longer
-unambiguously on one branch, and the run stops with a
-:class:`~closedloop.errors.SingularConfigurationError`.
+Every accepted step goes to the run's watch (:mod:`~closedloop.simulation.watch`: change points,
+the branch guard at det Phi_z = 0, dead positions of minimal coordinates, crawling) as it is
+taken, so that a run stops where a check fails.
 """
 
 from __future__ import annotations
@@ -21,8 +11,10 @@ import math
 
 import numpy as np
 
-from ..errors import ClosedLoopError, IntegrationError, SingularConfigurationError
+from ..errors import ClosedLoopError, IntegrationError
 from ..methods import scipy_integrate, solver_class, solver_classes
+from . import switching as rule
+from .options import stop_when_value
 
 __all__ = ["segment", "counting_solver", "SOLVER_CLASSES", "STANDING_STEPS"]
 
@@ -57,11 +49,13 @@ class _BudgetExceeded(Exception):
 def counting_solver(run, method):
     """The solve_ivp method as an OdeSolver subclass that records every accepted step on ``run``.
 
-    It stops the integration (a failed step) when the run's ``max_steps`` is reached.
+    Each accepted step goes to the run's watch (:meth:`~closedloop.simulation.watch.PathWatch.record`),
+    which raises where a check fails; the integration stops (a failed step) when the run's
+    ``max_steps`` is reached.
     """
     base = solver_class(method)
     max_steps = run.options.max_steps
-    watch = run.path.active
+    record = run.path.record
 
     class Counted(base):
         standing = 0                                # successful steps in a row that left t where it was
@@ -78,8 +72,7 @@ def counting_solver(run, method):
             if success and self.t != t_before:
                 run.record_step(t_before, self.t)
                 run.t_reached = self.t
-                if watch:
-                    run.path.record(self.t, self.y)
+                record(self.t, self.y.copy())
                 if len(run.step_sizes) >= max_steps and self.t != self.t_bound:
                     run.steps_exhausted = True
                     return False, f"max_steps = {max_steps} reached"
@@ -89,32 +82,33 @@ def counting_solver(run, method):
     return Counted
 
 
-def _events(run, unpack, mode):
-    """Terminal events at every switch (and stop_when), then the branch guard's det Phi_z (not terminal)."""
+def _events(run, unpack, mode, t0):
+    """Terminal events at every switch (and stop_when), for a segment that starts at ``t0`` on branch ``mode``.
+
+    At ``t0`` an exact zero of a switching function counts as on the branch chosen
+    (:func:`~closedloop.simulation.switching.on_chosen_side`), so that a crossing later in the
+    first step is located there and not at the start.
+    """
     switching_functions = run.force.switching_functions if run.names else None
     events = []
     for i in range(len(run.names)):
         def event(t, y, i=i):
             s, sd = unpack(y, t)
-            return switching_functions(t, s, sd)[i]
+            value = switching_functions(t, s, sd)[i]
+            return rule.on_chosen_side(value, mode[i]) if t == t0 else value
 
         event.terminal, event.direction = True, (-1.0 if mode[i] else 1.0)
         events.append(event)
     if run.options.stop_when is not None:
+        stop_when = run.options.stop_when
+
         def stop(t, y):
-            return run.options.stop_when(t, *unpack(y, t))
+            s, sd = unpack(y, t)
+            return stop_when_value(stop_when, t, s, sd)
 
         stop.terminal, stop.direction = True, 1.0
         events.append(stop)
-    terminal = len(events)
-    if not run.formulation.guards_branch:           # else the formulation guards its branch itself
-        system = run.system
-
-        def partition(t, y):                        # det Phi_z changes sign at a singular configuration of (20)
-            return np.linalg.det(system.jacobian(unpack(y, t)[0])[:, system.z_index])
-
-        events.append(partition)
-    return events, terminal
+    return events, len(events)
 
 
 def _guarded(rhs, run, reached, overflow):
@@ -148,13 +142,14 @@ def _guarded(rhs, run, reached, overflow):
 def segment(run, t0, s0, sd0, mode):
     """Integrate on branch ``mode`` from ``t0`` until t_end or the next switch: a SegmentEnd."""
     y0, unpack, rhs = run.start_segment(s0, sd0, mode)
-    events, terminal = _events(run, unpack, mode)
-    reached, overflow = [t0], []                    # last time the rhs was evaluated; (t, message) of overflows
-    run.path.start(t0, y0, s0)
+    events, terminal = _events(run, unpack, mode, t0)
+    reached = [t0]                                  # last time the rhs was evaluated
+    overflow = run.overflows = []                   # (t, message) of the overflows (the watch reads them too)
+    run.path.start(t0, y0, s0, mode)
     try:
         sol = _solve(run, rhs, t0, y0, events, reached, overflow)
     except ClosedLoopError:
-        run.path.check_recorded(failed_at=reached[0])         # a change point passed before is the real cause
+        run.path.failed(failed_at=reached[0])       # a change point passed before is the real cause
         raise
     run.nfev += sol.nfev
     event = t_stop = y_stop = None
@@ -162,11 +157,10 @@ def segment(run, t0, s0, sd0, mode):
         times = [te[0] if te.size else np.inf for te in sol.t_events[:terminal]]
         event = int(np.argmin(times))
         t_stop, y_stop = sol.t_events[event][0], sol.y_events[event][0]
-    run.path.check_recorded(t_stop, y_stop)
-    if terminal < len(events):
-        _check_crossings(run, sol.t_events[terminal], sol.y_events[terminal], unpack)
     if sol.status == -1:
-        raise IntegrationError(_failure_message(run, sol.message, t0, overflow))
+        run.path.failed()
+        raise IntegrationError(_failure_message(run, sol.message, t0, overflow, reached[0]))
+    run.path.end(t_stop, y_stop)
     t_out = np.asarray(sol.t, dtype=float)          # solve_ivp gives lists when t_eval is empty
     y_out = np.asarray(sol.y, dtype=float).reshape(y0.size, t_out.size)
     run.check_finite(t_out, y_out)
@@ -212,31 +206,6 @@ def _solve(run, rhs, t0, y0, events, reached, overflow):
         ) from None
 
 
-#: cond(Phi_s) above which the branch guard's message says Phi_s nearly loses rank (below it, the
-#: Kantorovich number is large because |f| is: the run drifted, at a well-conditioned configuration).
-NEAR_RANK_LOSS = 100.0
-
-
-def _check_crossings(run, times, states, unpack):
-    """The branch guard (see the module's notes) at each zero of det Phi_z."""
-    for t, y in zip(times, states):
-        f, Phi = run.system.constraints_and_jacobian(unpack(y, t)[0])
-        singular_values = np.linalg.svd(Phi, compute_uv=False)
-        largest, smallest, error = singular_values[0], singular_values[-1], np.linalg.norm(f)
-        kantorovich = math.inf if smallest == 0 else largest * error / smallest**2
-        if kantorovich > run.options.branch_limit:
-            condition = largest / smallest if smallest > 0 else math.inf
-            where = " where Phi_s nearly loses rank" if condition > NEAR_RANK_LOSS else ""
-            raise SingularConfigurationError(
-                f"the path crossed a singular configuration of Phi_z at t = {t:.6g} s{where} (cond(Phi_s) = "
-                f"{condition:.3g}, |f| = {error:.3g}, Kantorovich number {kantorovich:.3g} > "
-                f"{run.options.branch_limit:g}): the constraint error is as large as the distance between "
-                "assembly branches, so the run may have changed branch; tighten rtol and atol (at a "
-                "bifurcation itself no formulation can choose the branch)"
-            )
-        run.partition_singularities.append(float(t))
-
-
 def _time_reached(run, t0):
     return t0 if run.t_reached is None or run.t_reached < t0 else run.t_reached
 
@@ -245,9 +214,11 @@ def _last_step(run):
     return run.step_sizes[-1] if run.step_sizes else math.nan
 
 
-def _failure_message(run, message, t0, overflow):
-    """The IntegrationError text for a solve_ivp failure: time, quantity, what to try."""
+def _failure_message(run, message, t0, overflow, evaluated):
+    """The IntegrationError text for a solve_ivp failure: time, quantity, what to try (``evaluated``: the time of
+    the last right-hand side, where a force that is not finite is named)."""
     t, step, name = _time_reached(run, t0), _last_step(run), run.options.method_name
+    force = run.path.force_clause_before(evaluated)
     if run.steps_exhausted:
         text = (f"{name} reached max_steps = {run.options.max_steps} at t = {t:.6g} s of "
                 f"t_end = {run.t_end:g} s (last step size {step:.3g} s, mean "
@@ -257,12 +228,13 @@ def _failure_message(run, message, t0, overflow):
     elif message and "step size is less than spacing" in message:
         text = (f"{name} failed at t = {t:.6g} s: the step size underflowed (it must stay "
                 f"above 10 ulp(t) = {10 * np.spacing(abs(t)):.3g} s; the last accepted step was "
-                f"{step:.3g} s)")
-        advice = (f"no step that float64 resolves at this t meets the tolerances, so the motion or a force is "
+                f"{step:.3g} s){force}")
+        advice = (f"end the run before t = {t:.6g} s, or mend the force" if force else
+                  f"no step that float64 resolves at this t meets the tolerances, so the motion or a force is "
                   f"most likely singular there: end the run before t = {t:.6g} s (an implicit method or looser "
                   "tolerances do not carry a run through a singularity)")
     else:
-        text = f"{name} failed at t = {t:.6g} s (last step {step:.3g} s): {message}"
+        text = f"{name} failed at t = {t:.6g} s (last step {step:.3g} s): {message}{force}"
         advice = run.advice()
     if overflow:
         text += (f"; the right-hand side overflowed ({overflow[-1][1]}) at t = {overflow[-1][0]:.6g} s, "

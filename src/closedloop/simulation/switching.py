@@ -41,7 +41,7 @@ from ..codecache import cached_code
 from ..errors import IntegrationError
 
 __all__ = ["RATE_STEP", "SURFACE", "MIN_PROGRESS", "MAX_STALLS", "RELEASE_XTOL", "switching_rate", "decide",
-           "on_surface", "release_margin", "side_after_release", "locate_release", "no_progress",
+           "on_surface", "on_chosen_side", "CHOSEN_SIDE", "release_margin", "side_after_release", "locate_release", "no_progress",
            "refuse_sliding", "chattering_error", "forcing_period", "RATE_FLOOR", "PROBE_TIME", "uninformative",
            "probe"]
 
@@ -143,6 +143,27 @@ def probe(h, accelerations, t, s, sd, duration=PROBE_TIME, steps=PROBE_STEPS):
         k4 = slope(time + step, y + step * k3)
         y = y + step / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     return np.asarray(h(t + duration, y[:n], y[n:]))
+
+
+#: What a switching value exactly zero at a segment's start counts as, on the side the rule chose for it
+#: (see :func:`on_chosen_side`).
+CHOSEN_SIDE = 1e-300
+
+
+def on_chosen_side(value, side):
+    """A switching value at the start of a segment, ``value``, with an exact zero moved onto the branch ``side``.
+
+    A segment that starts on the surface h_i = 0 runs on the branch the rule chose
+    there.  The event that watches h_i for the way back must not take the start
+    itself for a crossing: with h_i(t0) = 0 a root finder bracketing a later crossing
+    returns t0, where h_i is zero too, and every segment would stop where it began
+    (a slider at rest just past a dead centre, which moves off the surface and comes
+    back to it a moment later, stalled so).  An exact zero counts as
+    :data:`CHOSEN_SIDE` on the chosen side: ``+`` on the "on" branch, ``-`` on the "off" one.
+    """
+    if value != 0.0:
+        return value
+    return CHOSEN_SIDE if side else -CHOSEN_SIDE
 
 
 def on_surface(h, scale):

@@ -295,7 +295,7 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
         raise InputError("phi0, dphi0: need one speed per angle")
     if not (np.all(np.isfinite(phi0)) and np.all(np.isfinite(dphi0))):
         raise InputError("phi0, dphi0: must be finite numbers")
-    _check_time(t_end, step)
+    _check_time(t_end, step, _step_bound(system, dphi0)[2])
     _check_step(system, step, dphi0)
     if sample_times is not None:
         sample_times = finite_array("sample_times", sample_times)
@@ -344,14 +344,36 @@ def integrate_outcomes(system, phi0, dphi0, t_end=20.0, step=DEFAULT_STEP, progr
     )
 
 
-def _check_time(t_end, step):
+def _shown(value, up):
+    """``value`` in 3 significant digits, rounded up (a lower bound) or down (an upper bound), so that the number
+    a message advises passes the check that it advises for."""
+    text = float(f"{value:.3g}")
+    if (text < value) if up else (text > value):
+        unit = 10.0 ** (math.floor(math.log10(abs(value))) - 2)
+        text = float(f"{text + unit if up else text - unit:.3g}")
+    return f"{text:g}"
+
+
+def _check_time(t_end, step, longest=math.inf):
+    """Refuse a t_end and step whose run needs more than MAX_STEPS steps, or a step beyond t_end.
+
+    ``longest`` is the longest step that resolves the map (:func:`_step_bound`): where even it
+    needs more than MAX_STEPS steps, only a shorter t_end helps, and the message says so.
+    """
     t_end = positive_number("t_end", t_end, unit="s")
     step = positive_number("step", step, unit="s")
     if step > t_end:
         raise InputError(f"step: must be <= t_end = {t_end:g} s, got {step:g} s")
     if t_end / step > MAX_STEPS:
+        if t_end / MAX_STEPS > longest:
+            raise InputError(f"t_end: {t_end:g} s would take more than {MAX_STEPS:g} steps (about 1 ms each), even of "
+                             f"the longest step that resolves this map, {_shown(longest, up=False)} s; give a t_end "
+                             f"<= {_shown(MAX_STEPS * step * (1 - 1e-9), up=False)} s (with this step of {step:g} s), "
+                             f"or <= {_shown(MAX_STEPS * float(_shown(longest, up=False)) * (1 - 1e-9), up=False)} s "
+                             f"with a step of {_shown(longest, up=False)} s")
         raise InputError(f"step: t_end/step would be {t_end / step:.3g} steps, more than {MAX_STEPS:g} (about 1 ms "
-                         f"each); give a step >= {t_end / MAX_STEPS:.3g} s or a shorter t_end, got {step:g} s")
+                         f"each); give a step >= {_shown(t_end / MAX_STEPS, up=True)} s or a shorter t_end, got "
+                         f"{step:g} s")
 
 
 def _check_work(cells, t_end, step):
@@ -371,15 +393,21 @@ def _check_step(system, step, rates):
     autonomous system, and 2 pi rad/s when the period is unknown).  Their largest, times the
     step, must stay below :data:`MAX_ANGLE_PER_STEP`.
     """
-    period = rule.forcing_period(system)
-    forcing = 0.0 if period == 0.0 else 2.0 * math.pi / (period if period else 1.0)
-    fastest = max(float(np.max(np.abs(rates), initial=0.0)), forcing)
+    fastest, source, _ = _step_bound(system, rates)
     if fastest * step > MAX_ANGLE_PER_STEP:
-        source = ("the forcing's 2 pi / period" if forcing >= fastest else "the largest starting speed |dphi0|")
         raise InputError(
             f"step: {step:g} s can not resolve this map: its fastest rate is {fastest:.3g} rad/s ({source}), "
             f"so the step must be <= {MAX_ANGLE_PER_STEP / fastest:.3g} s (at most {MAX_ANGLE_PER_STEP:g} rad "
             "per step)")
+
+
+def _step_bound(system, rates):
+    """``(fastest rate, which one it is, the longest step that resolves it)`` of a map (see :func:`_check_step`)."""
+    period = rule.forcing_period(system)
+    forcing = 0.0 if period == 0.0 else 2.0 * math.pi / (period if period else 1.0)
+    fastest = max(float(np.max(np.abs(rates), initial=0.0)), forcing)
+    source = "the forcing's 2 pi / period" if forcing >= fastest else "the largest starting speed |dphi0|"
+    return fastest, source, (MAX_ANGLE_PER_STEP / fastest if fastest > 0 else math.inf)
 
 
 def _start_rule(system, initial_state):
@@ -782,9 +810,9 @@ def basin_map(phi0_values, dphi0_values, t_end=20.0, *, step=DEFAULT_STEP, readi
     BasinMap
     """
     phi0_values, dphi0_values = _check_grid(phi0_values, dphi0_values)
-    _check_time(t_end, step)
-    samples = None if motions is None else _motion_times(t_end, motions)
     reading = get_reading(DEFAULT_READING if reading is None else reading).name
+    _check_time(t_end, step, _step_bound(slider_crank_system(reading=reading), dphi0_values)[2])
+    samples = None if motions is None else _motion_times(t_end, motions)
     if not (isinstance(workers, (int, np.integer)) and 1 <= workers <= (os.cpu_count() or 1) * 4):
         raise InputError(f"workers: must be an integer from 1 to {(os.cpu_count() or 1) * 4}, got {workers!r}")
     _check_work(phi0_values.size * dphi0_values.size, t_end, step)     # the whole map, before it is split
