@@ -20,6 +20,7 @@ __all__ = ["solve_dependent", "solve_dependent_many", "dependent_constraints_err
 
 #: Newton stops when |f| (or its step) is below this, relative to 1 + |s| (or 1 + |z|).
 NEWTON_TOLERANCE = 1e-15
+#: Newton iterations after which the dependent coordinates count as not found.
 NEWTON_MAX_ITERATIONS = 25
 
 

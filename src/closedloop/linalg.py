@@ -256,6 +256,7 @@ def orthogonal_complement_many(Phi, q_index, z_index):
 
 #: sigma_min(Phi_s) / sigma_max(Phi_s) below which Phi_s counts as rank deficient.
 RANK_LIMIT = 1e-10
+#: The ways :func:`null_space_basis` builds R: from the SVD, or by pivoted partitioning.
 NULL_SPACE_BASES = ("svd", "pivoted")
 
 

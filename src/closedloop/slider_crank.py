@@ -156,6 +156,7 @@ class Reading:
         return tuple(c * self.scale for c in gas_law.PRINTED_COEFFICIENTS)
 
 
+#: The readings of Table 1 by name (:class:`Reading`): which printed numbers mean what.
 READINGS = {
     r.name: r
     for r in (

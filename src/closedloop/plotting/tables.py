@@ -40,7 +40,8 @@ class Table:
 
     Examples
     --------
-    >>> Table([("RK45", 1.5e-3, 120)], ["method", "error [rad]", "steps"], ["", ".1e", "d"])
+    >>> Table([("RK45", 1.5e-3, 120)], ["method", "error [rad]", "steps"],
+    ...       ["", ".1e", "d"])
     method  error [rad]  steps
     RK45        1.5e-03    120
     """
@@ -124,10 +125,14 @@ def rounded_bound(value, spec, upper=True):
 
     Examples
     --------
-    >>> rounded_bound(2.3456e-9 / 1e-9, ".2f"), rounded_bound(4.41e-9, ".1e")
-    (2.35, 4.5e-09)
-    >>> rounded_bound(0.9687, ".3f", upper=False), format(rounded_bound(0.3401, ".0%"), ".0%")
-    (0.968, '35%')
+    >>> rounded_bound(2.3456e-9 / 1e-9, ".2f")
+    2.35
+    >>> rounded_bound(4.41e-9, ".1e")
+    4.5e-09
+    >>> rounded_bound(0.9687, ".3f", upper=False)
+    0.968
+    >>> format(rounded_bound(0.3401, ".0%"), ".0%")
+    '35%'
     """
     value = float(value)
     if not math.isfinite(value):

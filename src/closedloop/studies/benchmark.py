@@ -109,8 +109,10 @@ ACCURACY_LEVELS = (1e-2, 1e-4, 1e-6, 1e-8, 1e-10)
 PERFORMANCE_TARGET = 1e-8      # error_t10 at which the library is compared with the baseline
 PLATEAU_RATIO = 100.0          # an error this many times rtol no longer follows the tolerance
 STEP_RULE_DT = 0.05            # s: Delta t of the rule alpha = 1/dt, beta = sqrt(2)/dt (chapter 3 uses 0.1-0.02)
-BASELINE_KEY = "sympy"          # the baseline lambdified with sympy's default printer, numpy
-BASELINE_MATH_KEY = "sympy-math"    # the same, lambdified for Python's math module
+#: The key of the baseline lambdified with sympy's default printer, for numpy.
+BASELINE_KEY = "sympy"
+#: The key of the same baseline lambdified for Python's math module.
+BASELINE_MATH_KEY = "sympy-math"
 #: The baseline's entries, one per printer: the usual way at its best is the cheaper of the two.
 BASELINE_KEYS = (BASELINE_KEY, BASELINE_MATH_KEY)
 #: solve_ivp's methods but RK23 (RK45 is the same kind of method, of higher order).
@@ -219,6 +221,7 @@ class StudySettings:
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
 
 
+#: The full study, as the book's data file records it.
 DEFAULT_SETTINGS = StudySettings()
 #: The quick study: case 2 only, DOP853 and ode.dop853, three tolerances, one repeat (well under a minute).
 QUICK_SETTINGS = StudySettings(quick=True, cases=(2,), methods=("DOP853", "ode.dop853"), other_case_methods=(),

@@ -131,8 +131,11 @@ def gas_outward_work(x, reading=DEFAULT_READING):
 
     With ``a, b, c`` = 282.857, 62.857, 110 (scaled by the reading)::
 
-        U(x) = a ln((6 - x)/4.5) + b (x - 1.5)                                  1.5 <= x <= 5
-        U(x) = U(5) - c (x - 5) - c [cos(2 pi (x - 5.25)) - cos(-pi/2)] / (2 pi)   5 <= x <= 5.5
+        for 1.5 <= x <= 5:
+            U(x) = a ln((6 - x)/4.5) + b (x - 1.5)
+        for 5 <= x <= 5.5:
+            U(x) = U(5) - c (x - 5)
+                   - c [cos(2 pi (x - 5.25)) - cos(-pi/2)] / (2 pi)
 
     times the reading's ``force_sign``; constant outside [1.5, 5.5], where F = 0.
     Both pieces are the integrals of the law of :mod:`closedloop.gas_law`,
