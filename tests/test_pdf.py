@@ -4,7 +4,8 @@ The PDF is made once per session after the book (the ``built_pdf`` fixture of co
 with ``pdfinfo``, ``pdftotext``, ``pdfimages`` and ``pdftohtml -xml`` (its bookmarks). Everything the
 tests expect is read from the sources or from the built site, never typed here:
 
-- its length: every page of the site starts a printed page (but the rubrics, for instructors only), and
+- its length: every page of the site starts a printed page (but the rubrics, for instructors only, and
+  the library reference, which is the docstrings), and
   the pages hold text;
 - its title page: the title, the authors, the version and its date, and the names of the wheel and
   the archive the web edition offers;
@@ -35,7 +36,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from print_pdf import TEXTS, TITLE_PAGE, instructors_only
+from print_pdf import SITE_ONLY, TEXTS, TITLE_PAGE, instructors_only, left_out
 
 from ._toc import toc_documents as toc_pages_and_numbering
 
@@ -47,8 +48,8 @@ NOTES = {kind: text.split("{chapter}")[0] for kind, text in TEXTS["en"].items()}
 
 def toc_documents():
     """[(docname, numbered)] of every page the PDF prints: the site's, without the pages for instructors
-    only (the rubrics), which the PDF leaves out as the course edition does."""
-    return [(docname, numbered) for docname, numbered in toc_pages_and_numbering() if docname not in instructors_only()]
+    only (the rubrics), which the PDF leaves out as the course edition does, and the library reference."""
+    return [(docname, numbered) for docname, numbered in toc_pages_and_numbering() if docname not in left_out()]
 
 
 def run(*command):
@@ -476,3 +477,5 @@ def test_the_title_page_names_the_book_its_version_and_its_downloads(pages):
     assert version_line in first
     assert companion.wheel_name() in first and companion.archive_name() in first
     assert rubrics and [t for t in rubrics if typographic(t) in typographic(" ".join(pages))] == []
+    left = [source_title(docname) for docname in SITE_ONLY]                  # the library reference
+    assert left and [t for t in left if typographic(t) in typographic(" ".join(pages))] == []

@@ -242,6 +242,16 @@ def wait_for_bokeh(page):
     page.evaluate("() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
 
 
+#: Pages of the site that the printed book leaves out besides the rubrics: the library reference, the
+#: docstrings that ``help()`` shows (and which name environment variables, ``$CLOSEDLOOP_CACHE_DIR``).
+SITE_ONLY = ("book/reference",)
+
+
+def left_out():
+    """Every page the PDF leaves out: those for instructors only, and :data:`SITE_ONLY`."""
+    return [*instructors_only(), *SITE_ONLY]
+
+
 def instructors_only():
     """The pages the PDF leaves out, as the course edition does (book/_ext/companion.py)."""
     sys.path.insert(0, str(ROOT / "book" / "_ext"))
@@ -257,7 +267,7 @@ def texts_for(page):
     if language not in TEXTS:
         print(f"print_pdf: no notes in language {language!r} in TEXTS; the English ones are used", file=sys.stderr)
     return {**TEXTS.get(language, TEXTS["en"]), **TITLE_PAGE.get(language, TITLE_PAGE["en"]),
-            "omit": instructors_only()}
+            "omit": left_out()}
 
 
 def prepare(page):
