@@ -15,18 +15,37 @@ from .errors import InputError, SingularConfigurationError, at_time
 from .loading import first_use
 from .validation import one_of
 
-__all__ = ["solve_augmented", "solve_small", "solve_dense", "solve_many", "condition_number", "orthogonal_complement",
+__all__ = ["augmented_matrix", "solve_augmented", "solve_small", "solve_dense", "solve_many", "condition_number", "orthogonal_complement",
            "orthogonal_complement_many", "partition_condition", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
            "NULL_SPACE_BASES", "NEAR_RANK_LOSS", "NEARLY_SINGULAR"]
 
 
-def solve_augmented(M, Phi, p1, p2, t=None):
-    """Solve ``[[M, Phi^T], [Phi, 0]] [s''; lambda] = [p1; p2]`` (12), (16)."""
+def augmented_matrix(M, Phi):
+    """``[[M, Phi_s^T], [Phi_s, 0]]``, the matrix of (12) and (16).
+
+    Parameters
+    ----------
+    M : ndarray, shape (n, n)
+        The mass matrix.
+    Phi : ndarray, shape (r, n)
+        The constraint Jacobian Phi_s.
+
+    Returns
+    -------
+    ndarray, shape (n + r, n + r)
+    """
     n, r = M.shape[0], Phi.shape[0]
     K = np.zeros((n + r, n + r))
     K[:n, :n] = M
     K[:n, n:] = Phi.T
     K[n:, :n] = Phi
+    return K
+
+
+def solve_augmented(M, Phi, p1, p2, t=None):
+    """Solve ``[[M, Phi^T], [Phi, 0]] [s''; lambda] = [p1; p2]`` (12), (16)."""
+    n = M.shape[0]
+    K = augmented_matrix(M, Phi)
     try:
         x = solve_dense(K, np.concatenate((p1, p2)))
     except np.linalg.LinAlgError:
