@@ -16,7 +16,7 @@ from .loading import first_use
 from .validation import one_of
 
 __all__ = ["augmented_matrix", "solve_augmented", "solve_small", "solve_dense", "solve_many", "condition_number", "orthogonal_complement",
-           "orthogonal_complement_many", "partition_condition", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
+           "orthogonal_complement_many", "partition_condition", "partition_determinant", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
            "NULL_SPACE_BASES", "NEAR_RANK_LOSS", "NEARLY_SINGULAR"]
 
 
@@ -162,6 +162,37 @@ def condition_number(A):
         return math.inf if det == 0.0 else top / det          # sigma_max / sigma_min = sigma_max^2 / |det A|
     singular_values = np.linalg.svd(A, compute_uv=False)
     return math.inf if singular_values[-1] == 0.0 else float(singular_values[0] / singular_values[-1])
+
+
+def partition_determinant(Phi, z_index):
+    """det Phi_z, the determinant of the columns z of Phi_s in the partition s = (q, z) of (20).
+
+    R of (20) exists where it is not zero, and its sign tells the two assembly
+    branches of a partition apart: a change of sign along a motion is a dead
+    position of the independent coordinates q.
+
+    Parameters
+    ----------
+    Phi : ndarray, shape (r, n) or (r, n, K)
+        Phi_s at one configuration, or at K configurations along the last axis.
+    z_index : sequence of int
+        The r dependent coordinates.
+
+    Returns
+    -------
+    float or ndarray, shape (K,)
+        det Phi_z (closed form for r <= 2, LU otherwise).
+    """
+    Phi = np.asarray(Phi, dtype=float)
+    if Phi.ndim == 2:
+        return float(partition_determinant(Phi[:, :, None], z_index)[0])
+    Phi_z = Phi[:, list(z_index), :]
+    r = Phi_z.shape[0]
+    if r == 1:
+        return Phi_z[0, 0].copy()
+    if r == 2:
+        return Phi_z[0, 0] * Phi_z[1, 1] - Phi_z[0, 1] * Phi_z[1, 0]
+    return np.linalg.det(np.moveaxis(Phi_z, 2, 0))
 
 
 def partition_condition(Phi, z_index):

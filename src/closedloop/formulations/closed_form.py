@@ -51,7 +51,7 @@ from ..codecache import cached_code
 from ..errors import InputError, SingularConfigurationError, at_time
 from .redundant import _Stabilised
 
-__all__ = ["ClosedForm", "closed_form_accelerations", "closed_form_rhs", "partition_determinant", "MAX_CLOSED_FORM_SIZE"]
+__all__ = ["ClosedForm", "closed_form_accelerations", "closed_form_rhs", "MAX_CLOSED_FORM_SIZE"]
 
 #: Largest r (for Phi_z) and f (for R^T M R) whose inverse is formed symbolically.
 MAX_CLOSED_FORM_SIZE = 3
@@ -276,39 +276,6 @@ def _folded_rhs(system, mode, alpha, beta):
         by_force[key] = _generate_rhs(model.velocities, [e.xreplace(values) for e in accelerations], model.time,
                                       model.coordinates)
     return by_force[key]
-
-
-def partition_determinant(system):
-    """det Phi_z of the model's partition as a generated numpy function of the coordinates, or None.
-
-    ``determinant(s) -> ndarray`` takes s of shape (n, K) and returns det Phi_z
-    at the K configurations (R of (20) exists where it is not zero).  Formed
-    symbolically for r <= :data:`MAX_CLOSED_FORM_SIZE` with the parameter values
-    folded in; None for a larger r.  Built once per system and kept on it.
-    """
-    if system.r > MAX_CLOSED_FORM_SIZE:
-        return None
-    cached = system.generated.get("partition_determinant")
-    if cached is None:
-        function = _from_disk(system, "partition_determinant", (), _determinant)
-
-        def cached(s):
-            value = np.asarray(function(list(s)), dtype=float)
-            return value if value.shape == s.shape[1:] else np.broadcast_to(value, s.shape[1:])   # a constant
-
-        system.generated["partition_determinant"] = cached
-    return cached
-
-
-def _determinant(system):
-    """det Phi_z as a numpy function ``function(list(s))`` (sympy), for partition_determinant."""
-    import sympy as sp
-
-    model = system.model
-    values = dict(zip(model.parameters, (sp.Float(v) for v in system.parameter_values.tolist())))
-    Phi_z = system.derived.jacobian[:, list(system.z_index)]
-    det = sp.sympify(Phi_z.det(method="berkowitz")).xreplace(values)
-    return sp.lambdify([list(model.coordinates)], det, modules="numpy")
 
 
 @dataclass(frozen=True)

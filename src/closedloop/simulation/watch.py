@@ -66,7 +66,7 @@ import numpy as np
 
 from .. import hermite
 from ..errors import ConvergenceError, IntegrationError, SingularConfigurationError
-from ..linalg import NEAR_RANK_LOSS, NEARLY_SINGULAR, partition_condition
+from ..linalg import NEAR_RANK_LOSS, NEARLY_SINGULAR, partition_condition, partition_determinant
 from ..loading import first_use
 from .change_points import EPSILON, branch_error, change_point_error, find_change_point, meeting_point
 
@@ -90,16 +90,6 @@ def _brentq():
     from scipy.optimize import brentq
 
     return brentq
-
-
-def _determinants(Phi_z):
-    """det of K matrices Phi_z of shape (r, r, K)."""
-    r = Phi_z.shape[0]
-    if r == 1:
-        return Phi_z[0, 0].copy()
-    if r == 2:
-        return Phi_z[0, 0] * Phi_z[1, 1] - Phi_z[0, 1] * Phi_z[1, 0]
-    return np.linalg.det(np.moveaxis(Phi_z, 2, 0))
 
 
 def _configuration(names, s):
@@ -359,7 +349,7 @@ class PathWatch:
     def _branch_guard(self, steps, times, residuals, jacobians, crossings, failures):
         """Each step where det Phi_z changes sign: the crossing located, the Kantorovich number checked."""
         system = self.system
-        det = _determinants(jacobians[:, system.z_index, :])
+        det = partition_determinant(jacobians, system.z_index)
         flips = steps[(det[steps] * det[steps + 1] < 0.0) | ((det[steps] == 0.0) & (det[steps + 1] != 0.0))
                       | ((det[steps + 1] == 0.0) & (det[steps] != 0.0))]
         brentq = _brentq() if flips.size else None
@@ -368,8 +358,7 @@ class PathWatch:
             position, _ = self._interpolant(k, times, rows)
 
             def det_at(u):
-                Phi = system.jacobian(position(u))
-                return float(_determinants(Phi[:, system.z_index, None])[0])
+                return partition_determinant(system.jacobian(position(u)), system.z_index)
 
             if det[k] == 0.0:
                 u = 0.0
