@@ -164,6 +164,12 @@ def test_the_source_fingerprint_changes_with_any_module_of_the_package(tmp_path,
     (package / "notes.txt").write_text("not code")                     # not a module: no change
     seen.add(fingerprint())
     assert len(seen) == 4
+    without_sub = codecache.package_fingerprint(("sub",))                 # a study's fingerprint leaves a folder out
+    (package / "sub" / "b.py").write_text("B = 4\n")
+    assert codecache.package_fingerprint(("sub",)) == without_sub
+    assert codecache.package_fingerprint(("sub",)) != codecache.package_fingerprint(("a.py",))
+    (package / "a.py").write_bytes(b"A = 1\r\n")                       # line endings do not count
+    assert codecache.package_fingerprint(("sub",)) == without_sub
 
 
 def test_a_model_is_known_by_its_builder_or_by_every_symbol_and_expression():

@@ -72,26 +72,20 @@ suit it, both of its entries run ``baseline_methods`` (DOP853 and LSODA) in the 
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
-import os
-import sys
 import time
 from dataclasses import asdict, dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ..codecache import sympy_version
 from ..errors import ClosedLoopError, InputError
-from .. import __version__
 from .. import methods as method_names
 from ..formulations import Augmented, Baumgarte, ClosedForm, Minimal, Orthogonal, Projected, baumgarte_from_step
 from ..methods import SOLVER_METHODS
 from ..simulation import simulate
 from ..slider_crank import get_case, initial_state, slider_crank_system
 from .baseline import LagrangesBaseline
+from .provenance import provenance, read_with_provenance, source_fingerprint
 
 __all__ = [
     "Entry", "study_entries", "StudySettings", "DEFAULT_SETTINGS", "QUICK_SETTINGS", "run_study",
@@ -223,44 +217,6 @@ DEFAULT_SETTINGS = StudySettings()
 #: The quick study: case 2 only, DOP853 and ode.dop853, three tolerances, one repeat (well under a minute).
 QUICK_SETTINGS = StudySettings(quick=True, cases=(2,), methods=("DOP853", "ode.dop853"), other_case_methods=(),
                                rtols=(1e-3, 1e-6, 1e-9), repeats=1, time_cap_s=0.5)
-
-
-# -- provenance ------------------------------------------------------------------------------
-#: Paths in the package, relative to its root, that cannot change a number of the study (output
-#: and examples only); a folder named here leaves out everything below it.
-_NOT_IN_FINGERPRINT = ("cli.py", "output.py", "plotting.py", "plotting", "examples.py", "four_bar.py")
-#: The package's root folder, wherever this module sits below it.
-_PACKAGE_ROOT = Path(__import__("closedloop").__file__).resolve().parent
-
-
-def source_fingerprint():
-    """sha256 of the library's sources that can change the study's numbers.
-
-    Every ``*.py`` below the package root, in subpackages too, except
-    :data:`_NOT_IN_FINGERPRINT`, in path order, each as its relative path and
-    its bytes; so a new module, or a module moved to another folder, counts too.
-    """
-    digest = hashlib.sha256()
-    for path in sorted(_PACKAGE_ROOT.rglob("*.py")):
-        relative = path.relative_to(_PACKAGE_ROOT)
-        if relative.as_posix() in _NOT_IN_FINGERPRINT or relative.parts[0] in _NOT_IN_FINGERPRINT:
-            continue
-        digest.update(relative.as_posix().encode() + b"\0" + path.read_bytes().replace(b"\r\n", b"\n") + b"\0")
-    return digest.hexdigest()
-
-
-def _provenance(settings):
-    import platform                         # here: the command line builds its parser from this module
-    import scipy
-
-    return {
-        "closedloop_version": __version__,
-        "source_fingerprint": source_fingerprint(),
-        "settings": settings.as_dict(),
-        "machine": {"platform": platform.platform(), "machine": platform.machine(),
-                    "cpu_count": os.cpu_count(), "python": sys.version.split()[0],
-                    "numpy": np.__version__, "scipy": scipy.__version__, "sympy": sympy_version()},
-    }
 
 
 # -- running ---------------------------------------------------------------------------------
@@ -410,7 +366,7 @@ def run_study(settings=DEFAULT_SETTINGS, entries=None, progress=None):
     system = slider_crank_system()
     baselines = _baselines(system, entries)
     grid, check_index = _grid(settings)
-    data = _provenance(settings)
+    data = provenance(settings)
     data.update(baseline_derivation_cpu_s={printer: baseline.derivation_cpu_time
                                            for printer, baseline in baselines.items()},
                 references={}, rows=[])
@@ -438,24 +394,7 @@ def load_study(path):
     Returns the dict of :func:`run_study`, with one more key, ``"current"``: True
     when its ``source_fingerprint`` is that of the library now imported.
     """
-    return _read_with_provenance(path, ("references", "rows"), "a study", "benchmark")
-
-
-def _read_with_provenance(path, parts, what, command):
-    """The JSON file at ``path`` that ``closedloop COMMAND --json`` wrote, with its provenance
-    (:func:`_provenance`) and ``parts`` checked, and one more key, ``"current"``: True when its
-    ``source_fingerprint`` is that of the library now imported.  ``what`` names it in errors.
-    """
-    try:
-        with open(path, encoding="utf-8") as stream:
-            data = json.load(stream)
-    except (OSError, ValueError) as error:
-        raise InputError(f"path: cannot read {what} from {str(path)!r}: {error}") from None
-    missing = {"closedloop_version", "source_fingerprint", "settings", "machine", *parts} - set(data)
-    if missing:
-        raise InputError(f"path: {str(path)!r} lacks {sorted(missing)}; write it with closedloop {command} --json")
-    data["current"] = data["source_fingerprint"] == source_fingerprint()
-    return data
+    return read_with_provenance(path, ("references", "rows"), "a study", "benchmark")
 
 
 def best_row(rows, level, library=None):
