@@ -19,6 +19,7 @@ from ..validation import (finite_array, finite_number, flag, instance_of, is_rea
                           shown, shown_array)
 from . import dop853
 from .switching import MIN_PROGRESS, no_progress
+from .work import WORK_NAME, state_size
 
 __all__ = ["RunOptions", "run_options", "methods_taking", "stop_when_value", "SOLVER_OPTIONS", "simulate_parameters", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT",
            "MAX_STEPS", "INITIAL_TOLERANCE", "IMPLICIT_METHODS"]
@@ -129,8 +130,8 @@ def _tolerance_entries(name, tolerance, system, initial_state, formulation, meth
         return float(tolerance.reshape(-1)[0])
     if method == dop853.METHOD or (name == "rtol" and method == "Radau"):
         raise InputError(f"{name}: {method} takes one number, got {tolerance.size}")
-    names = formulation.state_names(system) + (["W"] if work else [])
-    size = formulation.pack(system, initial_state.s, initial_state.sd).size + (1 if work else 0)
+    names = formulation.state_names(system) + ([WORK_NAME] if work else [])
+    size = state_size(formulation.pack(system, initial_state.s, initial_state.sd).size, work)
     if tolerance.shape != (size,):
         raise InputError(f"{name}: need one value or {size}, one per entry of the {formulation.name} state "
                          f"({', '.join(names[:size])}), got "

@@ -69,6 +69,7 @@ from ..errors import ConvergenceError, IntegrationError, SingularConfigurationEr
 from ..linalg import NEAR_RANK_LOSS, NEARLY_SINGULAR, partition_condition, partition_determinant
 from ..loading import first_use
 from .change_points import EPSILON, branch_error, change_point_error, find_change_point, meeting_point
+from .work import without_work
 
 __all__ = ["PathWatch", "diagnosis", "FIRST_BATCH", "BATCH_GROWTH", "CRAWL_STEPS", "CRAWL_FRACTION",
            "NEAR_RANK_LOSS"]
@@ -233,7 +234,7 @@ class PathWatch:
         for y in reversed(self.raw_states):
             if np.all(np.isfinite(y)):
                 try:
-                    s, sd = self.unpack(y[:-1] if self.options.work else y, t)
+                    s, sd = self.unpack(without_work(y, self.options.work), t)
                 except ClosedLoopErrors:
                     return ""
                 return self.run.force_clause(t, s, sd, self.modes[-1] if self.modes else None)
@@ -244,9 +245,7 @@ class PathWatch:
         if upto <= self.moved:
             return
         times = self.raw_times[self.moved:upto]
-        states = np.column_stack(self.raw_states[self.moved:upto])
-        if self.options.work:
-            states = states[:-1]
+        states = without_work(np.column_stack(self.raw_states[self.moved:upto]), self.options.work)
         self.moved = upto
         s, sd = self.unpack.many(states, np.asarray(times))
         segment = len(self.modes) - 1
@@ -481,7 +480,7 @@ class PathWatch:
         options, run = self.options, self.run
         why = None
         try:
-            state = y[:-1] if options.work else y
+            state = without_work(y, options.work)
             s = self.unpack(np.asarray(state, dtype=float), t)[0]
             why = diagnosis(self.system, self.formulation, s)
         except ClosedLoopErrors:
