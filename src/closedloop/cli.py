@@ -245,14 +245,13 @@ def run_simulate(args):
     from .formulations import formulation_from_name
     from .simulation import simulate
     from .simulation.options import methods_taking
-    from .slider_crank import CLASSIFY_RTOL_LIMIT, classify_motion, get_reading, initial_state, slider_crank_system
+    from .slider_crank import (check_classification_tolerance, classify_motion, get_reading, initial_state,
+                               slider_crank_system)
 
     case, phi0, dphi0 = _initial_condition(args)
     t_end = _positive("t_end", args.t_end, unit="s")
     rtol, atol = _positive("rtol", args.rtol), _positive("atol", args.atol)
-    if rtol > CLASSIFY_RTOL_LIMIT:                   # classify_motion would refuse the run after it
-        raise InputError(f"--rtol: must be <= {CLASSIFY_RTOL_LIMIT:g} for the motion to be classified "
-                         f"(a full rotation told from an oscillation), got {rtol:g}")
+    check_classification_tolerance("--rtol", rtol)   # before the run: classify_motion would refuse it after
     formulation = formulation_from_name(args.formulation, _number("alpha", args.alpha), _number("beta", args.beta))
     methods = methods_taking(formulation)
     method = args.method if args.method is not None else (

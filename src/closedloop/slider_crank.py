@@ -30,6 +30,7 @@ from .simulation import SimulationResult
 from .validation import finite_number, flag, instance_of, one_of, shown
 
 __all__ = [
+    "check_classification_tolerance",
     "SliderCrankParameters",
     "Reading",
     "READINGS",
@@ -470,6 +471,28 @@ def motion_codes(excursion):
 CLASSIFY_RTOL_LIMIT = 1e-3
 
 
+def check_classification_tolerance(name, rtol, prefix=""):
+    """Refuse a relative tolerance too loose for :func:`classify_motion`.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name in the message (``"--rtol"``, ``"result"``).
+    rtol : float
+        The relative tolerance, or the largest of several.
+    prefix : str, optional
+        Words before the rule in the message (``"not classified, "``).
+
+    Raises
+    ------
+    InputError
+        If ``rtol`` is above :data:`CLASSIFY_RTOL_LIMIT`.
+    """
+    if rtol > CLASSIFY_RTOL_LIMIT:
+        raise InputError(f"{name}: {prefix}rtol = {rtol:g} is too loose to tell a full rotation from an "
+                         f"oscillation; rerun with rtol <= {CLASSIFY_RTOL_LIMIT:g}")
+
+
 def classify_motion(result, phi0=None) -> str:
     """``"full rotation"`` if the crank ever turns 2 pi beyond its start, else ``"oscillation"``.
 
@@ -493,10 +516,7 @@ def classify_motion(result, phi0=None) -> str:
     warnings = result.warnings
     if warnings:
         raise InputError(f"result: not classified, {warnings[0]}")
-    tolerance = float(np.max(result.rtol))
-    if tolerance > CLASSIFY_RTOL_LIMIT:
-        raise InputError(f"result: not classified, rtol = {tolerance:g} is too loose to tell a full rotation "
-                         f"from an oscillation; rerun with rtol <= {CLASSIFY_RTOL_LIMIT:g}")
+    check_classification_tolerance("result", float(np.max(result.rtol)), "not classified, ")
     phi = result.coordinate("phi")
     start = phi[0] if phi0 is None else phi0
     if phi.size == 0 or not (np.all(np.isfinite(phi)) and np.isfinite(start)):
