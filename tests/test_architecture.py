@@ -355,6 +355,31 @@ def test_every_list_of_methods_comes_from_one_place():
     assert benchmark.EXPLICIT_RK == ("RK45", "DOP853")
 
 
+def formulation_names_typed(path):
+    """The registry names of formulations (``"closed-form"``) typed as a string in the module at ``path``."""
+    from closedloop.formulations import REGISTRY
+
+    return sorted((node.lineno, node.value) for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+                  if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in REGISTRY)
+
+
+def test_no_formulation_name_is_typed_outside_its_own_file():
+    """A formulation's name is typed once, as its class attribute: everything else asks the registry or the class."""
+    from closedloop.formulations import REGISTRY
+
+    own = {}
+    for name, cls in REGISTRY.items():
+        own.setdefault(Path(__import__(cls.__module__, fromlist=["_"]).__file__).resolve(), set()).add(name)
+    typed = {}
+    for path in MODULES:
+        found = [(line, value) for line, value in formulation_names_typed(path)
+                 if value not in own.get(path.resolve(), set())]
+        if found:
+            typed[path.relative_to(PACKAGE_ROOT).as_posix()] = found
+    assert typed == {}
+    assert len(formulation_names_typed(PACKAGE_ROOT / "formulations" / "redundant.py")) == 4     # the scan sees them
+
+
 def test_the_solver_classes_are_made_on_first_use_and_are_scipy_s():
     import scipy.integrate
 

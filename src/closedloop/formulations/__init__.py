@@ -41,7 +41,8 @@ FORMULATION_NAMES = tuple(REGISTRY)
 
 
 def _takes_gains(cls):
-    return "alpha" in getattr(cls, "__dataclass_fields__", {})
+    """Whether the formulation ``cls`` takes Baumgarte gains: its ``gains`` flag, on a default instance."""
+    return cls().gains is not None
 
 
 def formulation_from_name(name, alpha=None, beta=None):

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..formulations import Formulation
+from ..formulations import REGISTRY, Formulation
 from ..kinematics import initial_state_arrays
 from ..linalg import null_space_basis
 from ..methods import IMPLICIT_METHODS, SOLVER_METHODS
@@ -162,8 +162,8 @@ def _is_ode_solver(method):
 def _check_method(formulation, method, switching, options):
     if not isinstance(formulation, Formulation):
         raise InputError(
-            "formulation: expected a Formulation (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, "
-            f"ClosedForm or Projected), got {formulation!r}"
+            f"formulation: expected a Formulation (one of {', '.join(REGISTRY[name].__name__ for name in REGISTRY)}, "
+            f"or a subclass of closedloop.Formulation), got {formulation!r}"
         )
     if not ((isinstance(method, str) and method in SOLVER_METHODS)
             or (isinstance(method, type) and _is_ode_solver(method))):

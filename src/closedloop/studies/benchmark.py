@@ -83,6 +83,7 @@ from .. import methods as method_names
 from ..formulations import Augmented, Baumgarte, ClosedForm, Minimal, Orthogonal, Projected, baumgarte_from_step
 from ..methods import SOLVER_METHODS
 from ..simulation import simulate
+from ..simulation.options import methods_taking
 from ..slider_crank import get_case, initial_state, slider_crank_system
 from .baseline import LagrangesBaseline
 from .provenance import provenance, read_with_provenance, source_fingerprint
@@ -111,7 +112,8 @@ BASELINE_KEYS = (BASELINE_KEY, BASELINE_MATH_KEY)
 SOLVE_IVP_METHODS = tuple(method for method in method_names.SOLVE_IVP_METHODS if method != "RK23")
 #: solve_ivp's five, and the compiled DOP853 of scipy.integrate.ode (closedloop.simulation.dop853).
 ALL_METHODS = SOLVE_IVP_METHODS + (method_names.COMPILED_METHOD,)
-EXPLICIT_RK = tuple(method for method in method_names.EXPLICIT_RUNGE_KUTTA_METHODS if method != "RK23")
+#: The methods of SOLVE_IVP_METHODS that the projected formulation takes (it says which, methods_taking asks it).
+EXPLICIT_RK = tuple(method for method in methods_taking(Projected()) if method in SOLVE_IVP_METHODS)
 
 
 @dataclass(frozen=True)
@@ -142,17 +144,22 @@ class Entry:
     modules: str = "numpy"
 
 
+def _entry(formulation, label, suffix="", methods=SOLVE_IVP_METHODS):
+    """The Entry of ``formulation``, keyed by its registry name and ``suffix`` ("-5-5" for a second pair of gains)."""
+    return Entry(formulation.name + suffix, label, formulation, methods)
+
+
 def study_entries():
     """The contestants, in display order: a new formulation is one more line here."""
     return (
-        Entry("augmented", "Augmented (12)", Augmented()),
-        Entry("baumgarte-5-5", "Baumgarte (5, 5)", Baumgarte(5, 5)),
-        Entry("baumgarte-10-10", "Baumgarte (10, 10)", Baumgarte(10, 10)),
-        Entry("baumgarte-step", f"Baumgarte 1/dt, dt = {STEP_RULE_DT:g} s", baumgarte_from_step(STEP_RULE_DT)),
-        Entry("orthogonal", "Orthogonal (26), (5, 5)", Orthogonal(5, 5)),
-        Entry("minimal", "Minimal", Minimal()),
-        Entry("projected", "Projected", Projected(), EXPLICIT_RK),
-        Entry("closed-form", "Closed form (26), (1, 1)", ClosedForm(1, 1), ("DOP853", "ode.dop853")),
+        _entry(Augmented(), "Augmented (12)"),
+        _entry(Baumgarte(5, 5), "Baumgarte (5, 5)", "-5-5"),
+        _entry(Baumgarte(10, 10), "Baumgarte (10, 10)", "-10-10"),
+        _entry(baumgarte_from_step(STEP_RULE_DT), f"Baumgarte 1/dt, dt = {STEP_RULE_DT:g} s", "-step"),
+        _entry(Orthogonal(5, 5), "Orthogonal (26), (5, 5)"),
+        _entry(Minimal(), "Minimal"),
+        _entry(Projected(), "Projected", methods=EXPLICIT_RK),
+        _entry(ClosedForm(1, 1), "Closed form (26), (1, 1)", methods=("DOP853", "ode.dop853")),
         Entry(BASELINE_KEY, "sympy.physics.mechanics, numpy printer", None),
         Entry(BASELINE_MATH_KEY, "sympy.physics.mechanics, math printer", None, modules="math"),
     )
@@ -469,12 +476,14 @@ def format_table(data):
 
 
 # -- residual traces (the data of the residual figure) ------------------------------------
-def residual_traces(case=2, method="DOP853", rtol=1e-6, keys=("augmented", "baumgarte-5-5", "orthogonal",
-                                                                 "minimal", "projected", BASELINE_KEY)):
+def residual_traces(case=2, method="DOP853", rtol=1e-6, keys=None):
     """|f| and |f'| against time on the common grid for the main formulations, one method and rtol.
 
-    Returns a dict ``label -> (t, |f|, |f'|)``.
+    ``keys`` are entries' keys; default Augmented, Baumgarte (5, 5), Orthogonal, Minimal, Projected
+    and the baseline's.  Returns a dict ``label -> (t, |f|, |f'|)``.
     """
+    if keys is None:
+        keys = (Augmented.name, Baumgarte.name + "-5-5", Orthogonal.name, Minimal.name, Projected.name, BASELINE_KEY)
     system = slider_crank_system()
     number = get_case(case)
     state = initial_state(system, number.phi0, number.dphi0)
