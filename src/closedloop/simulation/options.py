@@ -159,7 +159,7 @@ def _is_ode_solver(method):
     return issubclass(method, OdeSolver) and method is not OdeSolver
 
 
-def _check_method(formulation, method, switching, options):
+def _check_method(system, formulation, method, switching, options):
     if not isinstance(formulation, Formulation):
         raise InputError(
             f"formulation: expected a Formulation (one of {', '.join(REGISTRY[name].__name__ for name in REGISTRY)}, "
@@ -170,6 +170,10 @@ def _check_method(formulation, method, switching, options):
         choices = methods_taking(formulation, switching if switching in SWITCHING else "events")
         raise InputError(f"method: unknown {shown(method)}; choose one of {', '.join(choices)}")
     formulation.check_method(method)
+    if method == dop853.METHOD and formulation.integrator(system, method) != method:     # rule 7 of the contract
+        raise InputError(f"method: the {formulation.name} formulation alters the integrator's steps, which the "
+                         f"compiled {dop853.METHOD} cannot do; choose one of "
+                         f"{', '.join(m for m in methods_taking(formulation) if m != dop853.METHOD)}")
     if switching not in SWITCHING:
         raise InputError(f"switching: unknown {switching!r}; choose one of {', '.join(SWITCHING)}")
     if method == dop853.METHOD and switching == "naive":
@@ -319,7 +323,7 @@ def run_options(system, initial_state, formulation, *, t_start, t_end, method, r
         t_start, t_end, rtol, atol, sticking_resolution, branch_limit)
     multipliers, work = flag("multipliers", multipliers), flag("work", work)
     max_segments = positive_integer("max_segments", max_segments)
-    _check_method(formulation, method, switching, solver_options)
+    _check_method(system, formulation, method, switching, solver_options)
     solver_options = _check_steps(solver_options)
     max_nfev = None if max_nfev is None else positive_integer("max_nfev", max_nfev)
     max_steps = positive_integer("max_steps", max_steps)
