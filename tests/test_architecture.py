@@ -13,12 +13,10 @@ module level or inside a function, and resolves it to the full module name it re
 - No module imports sympy, matplotlib or bokeh when it is imported (only inside the functions
   that derive or draw): ``import closedloop`` and a run with cached generated code need none.
 - Nor any subpackage of scipy (scipy.integrate imports scipy.optimize, scipy.sparse, scipy.special,
-  scipy.linalg: about 0.3 s), so that a run with the compiled DOP853, which needs only its extension
-  (closedloop.simulation.dop853_code), imports none (issue 14).
+  scipy.linalg: about 0.3 s): a run imports them on first use.
 
 No module reaches a private part of a dependency (a module or name below its top-level package that
-starts with ``_``) by an import, an importlib loader or an attribute of an imported module, but for a
-list of known ones that must shrink to empty.
+starts with ``_``) by an import, an importlib loader or an attribute of an imported module.
 
 Every installed package that the library imports is declared in pyproject.toml's dependencies or its
 ``plot``/``interactive`` extras, and every one the tests and benchmarks import, in its ``test`` extra.
@@ -209,17 +207,10 @@ def test_the_scan_at_import_leaves_out_function_bodies_only():
 LOADERS = ("import_module", "__import__", "find_spec", "spec_from_file_location", "ExtensionFileLoader",
            "SourceFileLoader", "SourcelessFileLoader")
 
-#: Private parts of dependencies the package still reaches: ``(module, name) -> why``.  Each one leaves this list
-#: when its module stops reaching it (the test below then fails until it is taken out); the list ends empty.
-KNOWN_PRIVATE = {
-    ("closedloop.simulation.dop853_code", "scipy.integrate._dop"):
-        "scipy's compiled DOP853 loaded from its file without scipy.integrate's __init__ (issue 35: through "
-        "scipy.integrate.ode instead, in the phase after issue 34)",
-    ("closedloop.simulation.dop853_code", "scipy.integrate._ivp.dop853_coefficients"):
-        "DOP853's coefficients, read from scipy's private module file (the same phase)",
-    ("closedloop.studies.baseline", "sympy.physics.mechanics.dynamicsymbols._t"):
-        "the time symbol of dynamicsymbols, as sympy's mechanics tutorials spell it (the same phase)",
-}
+#: Private parts of dependencies the package reaches: ``(module, name) -> why``; none since issue 35 (the compiled
+#: DOP853 through scipy.integrate.ode and DOP853's public class attributes, the time symbol as sympy.Symbol("t")).
+#: A new entry needs a reason that no public interface serves.
+KNOWN_PRIVATE = {}
 
 
 def is_private(name):
@@ -338,9 +329,8 @@ def test_the_package_reaches_dependencies_through_public_names_only():
     assert not gone, f"no longer reached, take them out of KNOWN_PRIVATE: {sorted(gone)}"
 
 
-@pytest.mark.xfail(strict=True, reason="KNOWN_PRIVATE is not empty yet: scipy's _dop and sympy's dynamicsymbols._t "
-                                       "(issue 35, the phase after issue 34)")
 def test_no_private_part_of_a_dependency_is_reached():
+    assert KNOWN_PRIVATE == {}
     assert private_parts_of_the_package() == {}
 
 

@@ -120,7 +120,7 @@ class LagrangesBaseline:
 
         phi, psi, x = me.dynamicsymbols("phi psi x")
         dphi, dpsi, dx = me.dynamicsymbols("phi psi x", 1)
-        t = me.dynamicsymbols._t
+        t = sm.Symbol("t")                                 # dynamicsymbols' time: phi is phi(t)
         l1, a1, m1, I1, l2, a2, m2, I2, m3, g = sm.symbols("l1 a1 m1 I1 l2 a2 m2 I2 m3 g")
 
         N = me.ReferenceFrame("N")
