@@ -21,7 +21,8 @@ from closedloop import codecache, gas_law
 from closedloop.codecache import cached_code
 from closedloop.formulations import closed_form
 from closedloop.four_bar import four_bar_model
-from closedloop.model import System, _generate, _identity, model_functions
+from closedloop.model import System, model_functions
+from closedloop.model_code import _generate, _identity
 from closedloop.simulation import switching
 from closedloop.slider_crank import slider_crank_model, slider_crank_system
 
