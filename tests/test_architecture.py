@@ -37,9 +37,9 @@ from closedloop.studies import baseline, benchmark
 
 PACKAGE_ROOT = Path(closedloop.__file__).resolve().parent
 PACKAGE = "closedloop"
-NOT_ENGINE = ("slider_crank.py", "four_bar.py", "studies", "plotting", "cli.py", "output.py", "_moved.py",
+NOT_ENGINE = ("slider_crank.py", "slider_crank_gas_law.py", "four_bar.py", "studies", "plotting", "cli.py", "output.py", "_moved.py",
               "__init__.py")
-ENGINE_MAY_NOT_IMPORT = ("slider_crank", "four_bar", "studies", "plotting", "cli", "output")
+ENGINE_MAY_NOT_IMPORT = ("slider_crank", "slider_crank_gas_law", "four_bar", "studies", "plotting", "cli", "output")
 STUDIES_MAY_NOT_IMPORT = ("plotting", "cli")
 
 

@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from closedloop import codecache, gas_law
+from closedloop import codecache
+from closedloop import slider_crank_gas_law as gas_law
 from closedloop.codecache import cached_code
 from closedloop.formulations import closed_form
 from closedloop.four_bar import four_bar_model

@@ -21,7 +21,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import gas_law
+from . import slider_crank_gas_law as gas_law
 from .errors import InputError
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
@@ -152,7 +152,7 @@ class Reading:
 
     @property
     def gas_coefficients(self):
-        """``(282.857, 62.857, 110.000)`` of the gas force (:data:`closedloop.gas_law.PRINTED_COEFFICIENTS`),
+        """``(282.857, 62.857, 110.000)`` of the gas force (:data:`closedloop.slider_crank_gas_law.PRINTED_COEFFICIENTS`),
         scaled by the reading."""
         return tuple(c * self.scale for c in gas_law.PRINTED_COEFFICIENTS)
 
@@ -200,7 +200,7 @@ def gas_force(x, xdot, reading=DEFAULT_READING):
     ``-110 [1 - sin 2 pi (x - 5.25)]`` on 5 <= x <= 5.5; zero for x_C' <= 0 and
     outside the stroke [1.5, 5.5].  The coefficients scale with the reading.
     The sign here is the printed one (F <= 0); how F enters the equations is
-    the reading's ``force_sign``.  The law is that of :mod:`closedloop.gas_law`.
+    the reading's ``force_sign``.  The law is that of :mod:`closedloop.slider_crank_gas_law`.
     """
     reading = get_reading(reading)
     x = np.asarray(x, dtype=float)
@@ -217,7 +217,7 @@ class GasForce(SwitchedForce):
     Switches: ``x_C' = 0`` (the force acts only while the slider moves
     outward; the slider may stick there) and ``x_C = 5`` (the formula changes).
     Every form of the force here (one state, K states, sympy) comes from the
-    expressions of :mod:`closedloop.gas_law`.
+    expressions of :mod:`closedloop.slider_crank_gas_law`.
     """
 
     switch_names = ("x_C' = 0", "x_C = 5")
