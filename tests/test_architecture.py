@@ -6,7 +6,7 @@ An ``ast`` scan of every module of src/closedloop finds each import, absolute or
 module level or inside a function, and resolves it to the full module name it reaches.
 
 - The engine (every module except ``slider_crank.py``, ``four_bar.py``, ``studies/``,
-  ``plotting/``, ``cli.py``, ``output.py``, ``_moved.py`` and the package's ``__init__.py``) never imports
+  ``plotting/``, ``cli.py``, ``output.py`` and the package's ``__init__.py``) never imports
   ``slider_crank``, ``four_bar``, ``studies``, ``plotting`` or ``cli``.
 - ``studies/`` never imports ``plotting``, ``cli`` or matplotlib: a study computes, a figure
   draws, so a figure change never touches the benchmark's source fingerprint.
@@ -37,7 +37,7 @@ from closedloop.studies import baseline, benchmark
 
 PACKAGE_ROOT = Path(closedloop.__file__).resolve().parent
 PACKAGE = "closedloop"
-NOT_ENGINE = ("slider_crank.py", "slider_crank_gas_law.py", "four_bar.py", "studies", "plotting", "cli.py", "output.py", "_moved.py",
+NOT_ENGINE = ("slider_crank.py", "slider_crank_gas_law.py", "four_bar.py", "studies", "plotting", "cli.py", "output.py",
               "__init__.py")
 ENGINE_MAY_NOT_IMPORT = ("slider_crank", "slider_crank_gas_law", "four_bar", "studies", "plotting", "cli", "output")
 STUDIES_MAY_NOT_IMPORT = ("plotting", "cli")
@@ -309,10 +309,10 @@ def test_the_scan_finds_every_way_to_reach_a_private_part(source, reached):
 def test_the_scan_leaves_public_names_the_standard_library_and_the_package_alone():
     source = ("import numpy as np\nfrom scipy.integrate import solve_ivp\nimport scipy\nv = scipy.__version__\n"
               "from __future__ import annotations\nimport importlib\nimportlib.import_module('scipy.integrate')\n"
-              "from ._moved import install\nfrom .redundant import _Stabilised\nimport os\nos._exit\n"
+              "from ._local import install\nfrom .redundant import _Stabilised\nimport os\nos._exit\n"
               "x = np.linalg.solve\nclass A(solve_ivp):\n    def f(self):\n        return self._g\n")
     names = [name for _, name in names_reached(source, "closedloop.formulations.closed_form")]
-    assert {"scipy.integrate.solve_ivp", "scipy.__version__", "closedloop.formulations._moved.install",
+    assert {"scipy.integrate.solve_ivp", "scipy.__version__", "closedloop.formulations._local.install",
             "numpy.linalg.solve",
             "os._exit", "scipy.integrate"} <= set(names)
     assert [name for name in names if is_private(name)] == []

@@ -17,10 +17,6 @@ from .linalg import null_space_basis
 from .model import DerivedModel, MultibodyModel, System, derive
 from .simulation import SimulationResult, simulate
 
-from . import _moved
-
-_moved.install(__name__)
-
 __all__ = [
     "Formulation", "Augmented", "Baumgarte", "Orthogonal", "Minimal", "baumgarte_from_step", "baumgarte_p2", "formulation_from_name",
     "MultibodyModel", "DerivedModel", "derive", "System", "SwitchedForce",
