@@ -15,9 +15,10 @@ from .errors import InputError, SingularConfigurationError, at_time
 from .loading import first_use
 from .validation import one_of
 
-__all__ = ["augmented_matrix", "solve_augmented", "solve_small", "solve_dense", "solve_many", "condition_number", "orthogonal_complement",
-           "orthogonal_complement_many", "partition_condition", "partition_determinant", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
-           "NULL_SPACE_BASES", "NEAR_RANK_LOSS", "NEARLY_SINGULAR"]
+__all__ = ["augmented_matrix", "solve_augmented", "solve_small", "solve_dense", "solve_many", "condition_number",
+           "orthogonal_complement", "orthogonal_complement_many", "partition_condition", "partition_determinant",
+           "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT", "NULL_SPACE_BASES", "NEAR_RANK_LOSS",
+           "NEARLY_SINGULAR"]
 
 
 def augmented_matrix(M, Phi):
@@ -80,8 +81,8 @@ def _qr():
 
 def solve_dense(A, b):
     """Solve ``A x = b`` for a square real A (n >= 3) by LAPACK's ``dgesv``, the routine numpy.linalg.solve
-    calls too: the same LU with partial pivoting, without numpy's checks and dispatch, which cost 3 of
-    its 4 microseconds for the 5 x 5 augmented matrix of (12), solved at every right-hand side.
+    calls too: the same LU with partial pivoting, without numpy's checks and dispatch, which cost most of
+    a small solve such as the augmented matrix of (12) at every right-hand side.
 
     Raises ``numpy.linalg.LinAlgError`` for an exactly singular A (a zero pivot), like numpy.
     """

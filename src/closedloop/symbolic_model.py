@@ -276,4 +276,4 @@ def _derive(model):
                         functions.energies)
 
 
-derive.cache_info, derive.cache_clear = _derive.cache_info, _derive.cache_clear     # one cache, as before
+derive.cache_info, derive.cache_clear = _derive.cache_info, _derive.cache_clear     # one cache for both names

@@ -13,8 +13,7 @@ small for the mechanisms of this book, the inverses are formed symbolically
 (adjugate over determinant) once, the parameter values of the system are folded
 in, common subexpressions are shared, and the result is generated as one
 ``math``-module function of floats.  At run time there is no matrix assembly
-and no linear solve: for the slider-crank one call costs about 1.5 µs against
-about 15 µs for assembling and solving (12) with numpy.
+and no linear solve.
 
 For an integration segment, where the branch (``mode``) of a switched force
 and the gains are fixed, :func:`closed_form_rhs` goes one step further: when the
@@ -30,12 +29,11 @@ folded in), so that a later run needs no sympy.
 
 The closed form is exactly as singular as R of (20): where det Phi_z = 0 it
 divides by zero and raises.  Near that point it loses digits as R does (about
-cond(Phi_z) times the rounding; measured on a rocking crank: 4e-6 in s'' at
-cond(Phi_z) = 2e9, 3.5 at 2e15) but does not check it, where
+cond(Phi_z) times the rounding) but does not check it, where
 :class:`~closedloop.formulations.Orthogonal` refuses |Phi_s| |Phi_z^-1| above
 :data:`~closedloop.linalg.CONDITION_LIMIT`.  In a run the branch guard (solve_ivp
-methods) or the partition check (ode.dop853) watches det Phi_z's sign between
-steps.  Use :class:`closedloop.formulations.Augmented` or a null-space
+methods and ode.dop853 alike, :mod:`closedloop.simulation.watch`) watches det
+Phi_z's sign between steps.  Use :class:`closedloop.formulations.Augmented` or a null-space
 formulation there.
 """
 

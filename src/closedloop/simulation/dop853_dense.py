@@ -55,8 +55,9 @@ def _tableau():
 class DenseOutputs:
     """The requested output times of a segment, from DOP853's continuous extension of the accepted steps.
 
-    The compiled code's right-hand side records every call's time and values in ``calls``
-    (the counting right-hand side of :mod:`~closedloop.simulation.dop853`); the calls since the last accepted step are kept.  When ``solout`` reports an
+    The compiled code's right-hand side (counted by :mod:`~closedloop.simulation.dop853`)
+    records every call's time and values in ``calls``; the calls since the last accepted
+    step are kept.  When ``solout`` reports an
     accepted step from ``ta`` to ``tb``, its last twelve calls are the eleven
     stages at ``ta + c_i h`` (i = 2..12) and f at the new step end (the code's
     FSAL evaluation); the step's first stage is f at ``ta``, the previous step's
@@ -92,7 +93,7 @@ class DenseOutputs:
         The segment's start (an output if ``t0`` is requested).
     t_end : float
     record : callable, optional
-        ``record(on)`` turns the recording of the calls into ``calls`` on or off (the counting right-hand side of :mod:`~closedloop.simulation.dop853`).
+        ``record(on)`` turns the recording of the calls into ``calls`` on or off.
     first_step : float, optional
         The code's first step (0: its own choice, unknown), which no accepted first step exceeds.
     increasing : bool, optional
@@ -274,8 +275,7 @@ _EPS = np.finfo(float).eps
 #: sides), never a wrong output.
 _LOOKAHEAD = 1.2 * (1.01 * IFACTOR) * (1.0 + 1.01 * IFACTOR)
 #: Outputs whose basis (:func:`_basis`, 8 rows) is computed at once: 8 x 2000 floats, 125 kB, under
-#: glibc's threshold (128 kB) for allocating with mmap, whose pages are faulted in anew every time
-#: (measured here: 1.35 µs per 4 kB page; a basis of 10 000 outputs at once cost 0.2 ms in faults).
+#: glibc's threshold (128 kB) for allocating with mmap, whose pages are faulted in anew every time.
 _GROUP_OUTPUTS = 2000
 #: A step end rebuilt from the stages may differ from the code's by this many units of round-off
 #: of the sum ``ya + h sum b_i k_i`` (the code sums in another order, and its h differs from

@@ -208,8 +208,8 @@ def simulate_parameters():
 def _check_option_names(method, options):
     """Refuse a keyword that is neither simulate()'s nor a solver option of ``method``, naming the close match.
 
-    A misspelt option (``max_stp``) went on to solve_ivp, which warned and ignored it: the run was not the
-    one asked for.
+    A misspelt option (``max_stp``) would reach solve_ivp, which warns and ignores it: the run would not be
+    the one asked for.
     """
     if not isinstance(method, str):
         return                                   # an OdeSolver of one's own: its options are its own

@@ -1,73 +1,27 @@
 """Error against run time: which formulation and integrator buy the most accuracy per second.
 
-The study behind ``closedloop benchmark`` and chapter 8.  For each of the
-paper's four cases it integrates the slider-crank over 0-20 s with every entry
-of :func:`study_entries` (the library's formulations and the same model
-written the usual way with ``sympy.physics.mechanics``, :mod:`closedloop.studies.baseline`,
-lambdified with each of its two printers, numpy and math),
-every solve_ivp method of the settings, and a ladder of tolerances
-(``atol = rtol``), and records one row per run.
+The study behind ``closedloop benchmark`` and chapter 8.  For each of the paper's four
+cases it integrates the slider-crank over 0-20 s with every entry of :func:`study_entries`
+(the library's formulations, and the same model written the usual way with
+``sympy.physics.mechanics``, :mod:`closedloop.studies.baseline`, lambdified with each of
+its two printers, numpy and math), every method of the settings and a ladder of tolerances
+(``atol = rtol``), and records one row per run (:func:`run_study` names its fields).  Every
+comparison with the library (:func:`best_row` with ``library=False``,
+:func:`cheapest_choices`, :func:`performance_ratios`) takes the cheapest row of either
+printer: the library is measured against the baseline at its best.
 
-The usual way at its best
--------------------------
-The baseline runs as two entries, :data:`BASELINE_KEYS`: sympy's default
-numpy printer, and the math printer a user tuning for speed picks (scalar
-code, about twice as fast per evaluation).  Every comparison with the library
-(:func:`best_row` with ``library=False``, :func:`cheapest_choices`,
-:func:`performance_ratios`) takes the cheapest row of either, so that the
-library is measured against the baseline's best printer, method and tolerance.
+The reference is the minimal-coordinate solution (:class:`~closedloop.formulations.Minimal`,
+DOP853, rtol = atol = 1e-13); its own accuracy is estimated by its distance to the
+rtol = atol = 1e-12 solution, recorded per case.
 
-Measures of one row
--------------------
-error_t10
-    ``max_k |y_k(10) - y_k,ref(10)|``, the max-norm of the difference of
-    ``y = [phi, psi, x_C, phi', psi', x_C']`` at t = 10 s, from the timed run
-    itself (below), so that the error and the CPU time belong to the same steps.
-max_state_error
-    The same max-norm, maximised over the 2001 points of the common grid
-    ``t = 0, 0.01, ..., 20`` s (every run writes its state there through
-    ``t_eval``, so all are compared at the same times).
-max_constraint_error, max_velocity_constraint_error
-    ``max |f|`` of (32) and ``max |f'| = max |Phi_s s'|`` over the same grid.
-nfev
-    Right-hand-side evaluations of the timed run.
-cpu_s
-    The median over ``repeats`` runs of the process time of one 20 s run that
-    outputs the state at 10 s and 20 s only, so that output work is the same
-    for every entry.  The grid run (with the 2001-point grid) is a separate,
-    untimed run.  It takes the same steps for every method, "ode.dop853"
-    included (the grid is interpolated from each method's dense output; see
-    the Notes of :func:`closedloop.simulate`), up to round-off in the switch
-    times: Minimal with DOP853 locates a switch a few units of the 15th digit
-    apart in the two runs, and its later step starts move by up to about 6e-8 s.
-
-Reference
----------
-The minimal-coordinate solution (:class:`~closedloop.formulations.Minimal`),
-DOP853, rtol = atol = 1e-13.  Its own accuracy is estimated by its distance
-to the rtol = atol = 1e-12 solution, recorded per case.
-
-Pruning (the full grid is too expensive to run blindly)
--------------------------------------------------------
-Along each curve (one case, one entry, one method) the tolerances are taken
-from loose to tight, and the curve stops
-
-- after a run whose median CPU time exceeds ``time_cap_s`` (implicit methods
-  at tight tolerances), or
-- when error_t10 has not fallen below half of the curve's best error, while
-  staying above ``PLATEAU_RATIO`` times rtol, for ``plateau`` tolerances in a
-  row (the error has reached its floor and no longer follows the tolerance).
-
-A failed run (its row records the message, with ``status`` "failed: ...")
-does not stop the curve: tighter tolerances may succeed.
-
-The row where a curve stopped says why, in ``curve_end``.  And every entry runs
-all of its methods (:attr:`Entry.methods`) in the main case (case 2, the full
-rotation the paper starts from); the
-other cases run ``other_case_methods`` only (DOP853, the explicit method of
-highest order, and the compiled ode.dop853), which keeps the default study under
-ten minutes on two cores.  So that the baseline is not held to methods that do not
-suit it, both of its entries run ``baseline_methods`` (DOP853 and LSODA) in the other cases.
+Pruning: along each curve (one case, one entry, one method) the tolerances are taken from
+loose to tight, and the curve stops after a run whose median CPU time exceeds
+``time_cap_s``, or when error_t10 has not fallen below half of the curve's best error while
+staying above ``PLATEAU_RATIO`` times rtol for ``plateau`` tolerances in a row (the error
+has reached its floor).  A failed run does not stop the curve; a row's ``curve_end`` says
+why its curve stopped.  Every entry runs all of its methods in the main case (case 2); the
+other cases run ``other_case_methods`` only (the baseline's entries ``baseline_methods``),
+which keeps the default study under ten minutes on two cores.
 """
 
 from __future__ import annotations
@@ -358,8 +312,20 @@ def run_study(settings=DEFAULT_SETTINGS, entries=None, progress=None):
     dict
         ``closedloop_version``, ``source_fingerprint``, ``settings``, ``machine``,
         ``baseline_derivation_cpu_s`` (per printer), ``references`` (per case: the reference's
-        agreement with the rtol = 1e-12 solution), ``wall_s`` and ``rows``, the
-        list of rows described in the module docstring.
+        agreement with the rtol = 1e-12 solution), ``wall_s`` and ``rows``, one dict per run
+        with its case, entry, method, rtol, ``status`` and ``curve_end``, and
+
+        - ``error_t10``: ``max_k |y_k(10) - y_k,ref(10)|`` of ``y = [phi, psi, x_C, phi', psi',
+          x_C']`` at t = 10 s, from the timed run itself, so that the error and the CPU time
+          belong to the same steps;
+        - ``max_state_error``: the same max-norm over the 2001 points ``t = 0, 0.01, ..., 20`` s
+          of an untimed run with that grid as ``t_eval`` (the same steps: the grid is
+          interpolated from each method's dense output);
+        - ``max_constraint_error``, ``max_velocity_constraint_error``: ``max |f|`` of (32) and
+          ``max |Phi_s s'|`` over that grid;
+        - ``nfev``: right-hand-side evaluations of the timed run;
+        - ``cpu_s``: the median over ``repeats`` runs of the process time of a 20 s run that
+          outputs the state at 10 s and 20 s only (the same output work for every entry).
     """
     for method in settings.methods + settings.other_case_methods + settings.baseline_methods:
         if method not in SOLVER_METHODS:
