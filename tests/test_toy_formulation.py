@@ -33,6 +33,16 @@ def test_a_registered_toy_is_made_by_its_name_and_takes_every_method(registered)
     with pytest.raises(InputError, match="toy-range-space.* is RangeSpace's already"):
         register(type("Other", (RangeSpace,), {}))
 
+    class Scaled(RangeSpace):
+        name = "toy-scaled"
+
+        def __init__(self, factor):
+            self.factor = factor
+
+    with pytest.raises(InputError, match=r"Scaled\(\) must work without arguments"):
+        register(Scaled)
+    assert "toy-scaled" not in REGISTRY
+
 
 @pytest.mark.parametrize("method", ["RK45", "DOP853", "Radau", "ode.dop853"])
 def test_the_toy_moves_as_augmented_on_every_runner(registered, slider_crank, case2, method):

@@ -67,6 +67,10 @@ def register(cls):
         raise InputError(f"cls: {cls.__name__}.name must be a non-empty string, got {name!r}")
     if REGISTRY.get(name, cls) is not cls:
         raise InputError(f"cls: the name {name!r} is {REGISTRY[name].__name__}'s already")
+    try:
+        cls()                               # rule 1: formulation_from_name(result.formulation) makes it so
+    except TypeError as error:
+        raise InputError(f"cls: {cls.__name__}() must work without arguments ({error})") from None
     REGISTRY[name] = cls
     return cls
 
