@@ -15,12 +15,13 @@ It prints, for each version,
 2. the wall and CPU time of ``closedloop simulate --case 2`` (a new interpreter, import included),
    best of ``--repeats`` runs with a warm cache (one run first fills it), the two versions
    taking turns; and, as floors measured in the same turns, an interpreter that only imports
-   ``scipy.integrate`` (which ``solve_ivp`` needs), one that only imports numpy (the floor of a
-   run with ``ode.dop853``, which needs numpy and scipy's compiled DOP853 but no scipy
-   subpackage, issue 14) and one that does nothing.
+   ``scipy.integrate`` (which ``solve_ivp`` needs, and, since issue 35, ``ode.dop853`` too: the
+   compiled DOP853 through the public ``scipy.integrate.ode``), one that only imports numpy (the
+   floor of a run with ``ode.dop853`` from issue 14 to issue 35, which loaded scipy's private
+   extension from its file) and one that does nothing.
 
-Then whether the after version's ``simulate --case 2`` imported sympy, matplotlib or a scipy
-subpackage (it should import only the extension ``scipy.integrate._dop``).
+Then whether the after version's ``simulate --case 2`` imported sympy, matplotlib, and which
+modules of scipy.
 The cache folder is a temporary one (``CLOSEDLOOP_CACHE_DIR``), removed at the end.
 
 Bytecode: an installed package imports its modules from cached bytecode. So that both versions

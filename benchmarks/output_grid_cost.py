@@ -20,7 +20,7 @@ gives 1.84 to 1.86.  Printed per method and grid:
 For ode.dop853, what the outputs' extra CPU time is made of follows the table: the extra
 right-hand sides (their count times the CPU of one call of the generated right-hand side alone,
 timed on the run's own states), the arithmetic of the interpolant at the output times
-alone (:func:`closedloop.simulation.dop853.interpolate` over all of them, in the library's groups of
+alone (:func:`closedloop.simulation.dop853_dense.interpolate` over all of them, in the library's groups of
 outputs, timed by itself: a floor no bookkeeping can go under), and the rest, the Python bookkeeping per step and
 per segment (recording and checking the stages, holding the steps, gathering their outputs).
 
@@ -35,7 +35,7 @@ import numpy as np
 
 from closedloop import Minimal, simulate
 from closedloop.formulations import ClosedForm
-from closedloop.simulation import dop853
+from closedloop.simulation import dop853, dop853_dense
 from closedloop.slider_crank import get_case, initial_state, slider_crank_system
 
 GRIDS = (None, 10_000, 50_000)
@@ -124,8 +124,8 @@ def _extra_cost(results, cpu, per_evaluation, repeats):
             continue
         # in pieces of the library's own group size: one call over 50 000 outputs would allocate, and fault
         # in, a 3 MB basis on every repeat, which is no floor (measured: from 0.3 to 4 ms)
-        pieces = np.array_split(np.linspace(0.0, 1.0, n), math.ceil(n / dop853._GROUP_OUTPUTS))
-        arithmetic = _best_process_time(lambda: [dop853.interpolate(F, ya, x) for x in pieces], repeats)
+        pieces = np.array_split(np.linspace(0.0, 1.0, n), math.ceil(n / dop853_dense._GROUP_OUTPUTS))
+        arithmetic = _best_process_time(lambda: [dop853_dense.interpolate(F, ya, x) for x in pieces], repeats)
         extra = cpu[n] - cpu[None]
         calls = (results[n].nfev - results[None].nfev) * per_evaluation
         print(f"{'':>10} {n:>8} {1e3 * extra:7.3f} = {1e3 * calls:.3f} + {1e3 * arithmetic:.3f} "

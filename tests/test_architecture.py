@@ -6,19 +6,17 @@ An ``ast`` scan of every module of src/closedloop finds each import, absolute or
 module level or inside a function, and resolves it to the full module name it reaches.
 
 - The engine (every module except ``slider_crank.py``, ``four_bar.py``, ``studies/``,
-  ``plotting/``, ``cli.py``, ``output.py``, ``_moved.py`` and the package's ``__init__.py``) never imports
+  ``plotting/``, ``cli.py``, ``output.py`` and the package's ``__init__.py``) never imports
   ``slider_crank``, ``four_bar``, ``studies``, ``plotting`` or ``cli``.
 - ``studies/`` never imports ``plotting``, ``cli`` or matplotlib: a study computes, a figure
   draws, so a figure change never touches the benchmark's source fingerprint.
 - No module imports sympy, matplotlib or bokeh when it is imported (only inside the functions
   that derive or draw): ``import closedloop`` and a run with cached generated code need none.
 - Nor any subpackage of scipy (scipy.integrate imports scipy.optimize, scipy.sparse, scipy.special,
-  scipy.linalg: about 0.3 s), so that a run with the compiled DOP853, which needs only its extension
-  (closedloop.simulation.dop853_code), imports none (issue 14).
+  scipy.linalg: about 0.3 s): a run imports them on first use.
 
 No module reaches a private part of a dependency (a module or name below its top-level package that
-starts with ``_``) by an import, an importlib loader or an attribute of an imported module, but for a
-list of known ones that must shrink to empty.
+starts with ``_``) by an import, an importlib loader or an attribute of an imported module.
 
 Every installed package that the library imports is declared in pyproject.toml's dependencies or its
 ``plot``/``interactive`` extras, and every one the tests and benchmarks import, in its ``test`` extra.
@@ -39,9 +37,9 @@ from closedloop.studies import baseline, benchmark
 
 PACKAGE_ROOT = Path(closedloop.__file__).resolve().parent
 PACKAGE = "closedloop"
-NOT_ENGINE = ("slider_crank.py", "four_bar.py", "studies", "plotting", "cli.py", "output.py", "_moved.py",
+NOT_ENGINE = ("slider_crank.py", "slider_crank_gas_law.py", "four_bar.py", "studies", "plotting", "cli.py", "output.py",
               "__init__.py")
-ENGINE_MAY_NOT_IMPORT = ("slider_crank", "four_bar", "studies", "plotting", "cli", "output")
+ENGINE_MAY_NOT_IMPORT = ("slider_crank", "slider_crank_gas_law", "four_bar", "studies", "plotting", "cli", "output")
 STUDIES_MAY_NOT_IMPORT = ("plotting", "cli")
 
 
@@ -209,17 +207,10 @@ def test_the_scan_at_import_leaves_out_function_bodies_only():
 LOADERS = ("import_module", "__import__", "find_spec", "spec_from_file_location", "ExtensionFileLoader",
            "SourceFileLoader", "SourcelessFileLoader")
 
-#: Private parts of dependencies the package still reaches: ``(module, name) -> why``.  Each one leaves this list
-#: when its module stops reaching it (the test below then fails until it is taken out); the list ends empty.
-KNOWN_PRIVATE = {
-    ("closedloop.simulation.dop853_code", "scipy.integrate._dop"):
-        "scipy's compiled DOP853 loaded from its file without scipy.integrate's __init__ (issue 35: through "
-        "scipy.integrate.ode instead, in the phase after issue 34)",
-    ("closedloop.simulation.dop853_code", "scipy.integrate._ivp.dop853_coefficients"):
-        "DOP853's coefficients, read from scipy's private module file (the same phase)",
-    ("closedloop.studies.baseline", "sympy.physics.mechanics.dynamicsymbols._t"):
-        "the time symbol of dynamicsymbols, as sympy's mechanics tutorials spell it (the same phase)",
-}
+#: Private parts of dependencies the package reaches: ``(module, name) -> why``; none since issue 35 (the compiled
+#: DOP853 through scipy.integrate.ode and DOP853's public class attributes, the time symbol as sympy.Symbol("t")).
+#: A new entry needs a reason that no public interface serves.
+KNOWN_PRIVATE = {}
 
 
 def is_private(name):
@@ -318,10 +309,10 @@ def test_the_scan_finds_every_way_to_reach_a_private_part(source, reached):
 def test_the_scan_leaves_public_names_the_standard_library_and_the_package_alone():
     source = ("import numpy as np\nfrom scipy.integrate import solve_ivp\nimport scipy\nv = scipy.__version__\n"
               "from __future__ import annotations\nimport importlib\nimportlib.import_module('scipy.integrate')\n"
-              "from ._moved import install\nfrom .redundant import _Stabilised\nimport os\nos._exit\n"
+              "from ._local import install\nfrom .redundant import _Stabilised\nimport os\nos._exit\n"
               "x = np.linalg.solve\nclass A(solve_ivp):\n    def f(self):\n        return self._g\n")
     names = [name for _, name in names_reached(source, "closedloop.formulations.closed_form")]
-    assert {"scipy.integrate.solve_ivp", "scipy.__version__", "closedloop.formulations._moved.install",
+    assert {"scipy.integrate.solve_ivp", "scipy.__version__", "closedloop.formulations._local.install",
             "numpy.linalg.solve",
             "os._exit", "scipy.integrate"} <= set(names)
     assert [name for name in names if is_private(name)] == []
@@ -338,9 +329,8 @@ def test_the_package_reaches_dependencies_through_public_names_only():
     assert not gone, f"no longer reached, take them out of KNOWN_PRIVATE: {sorted(gone)}"
 
 
-@pytest.mark.xfail(strict=True, reason="KNOWN_PRIVATE is not empty yet: scipy's _dop and sympy's dynamicsymbols._t "
-                                       "(issue 35, the phase after issue 34)")
 def test_no_private_part_of_a_dependency_is_reached():
+    assert KNOWN_PRIVATE == {}
     assert private_parts_of_the_package() == {}
 
 
@@ -353,6 +343,31 @@ def test_every_list_of_methods_comes_from_one_place():
     assert baseline.BASELINE_METHODS == methods.SOLVE_IVP_METHODS
     assert benchmark.ALL_METHODS == ("RK45", "DOP853", "Radau", "BDF", "LSODA", "ode.dop853")
     assert benchmark.EXPLICIT_RK == ("RK45", "DOP853")
+
+
+def formulation_names_typed(path):
+    """The registry names of formulations (``"closed-form"``) typed as a string in the module at ``path``."""
+    from closedloop.formulations import REGISTRY
+
+    return sorted((node.lineno, node.value) for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+                  if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in REGISTRY)
+
+
+def test_no_formulation_name_is_typed_outside_its_own_file():
+    """A formulation's name is typed once, as its class attribute: everything else asks the registry or the class."""
+    from closedloop.formulations import REGISTRY
+
+    own = {}
+    for name, cls in REGISTRY.items():
+        own.setdefault(Path(__import__(cls.__module__, fromlist=["_"]).__file__).resolve(), set()).add(name)
+    typed = {}
+    for path in MODULES:
+        found = [(line, value) for line, value in formulation_names_typed(path)
+                 if value not in own.get(path.resolve(), set())]
+        if found:
+            typed[path.relative_to(PACKAGE_ROOT).as_posix()] = found
+    assert typed == {}
+    assert len(formulation_names_typed(PACKAGE_ROOT / "formulations" / "redundant.py")) == 4     # the scan sees them
 
 
 def test_the_solver_classes_are_made_on_first_use_and_are_scipy_s():

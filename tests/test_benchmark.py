@@ -84,6 +84,18 @@ def test_constraint_errors_tell_the_formulations_apart(quick):
     assert curve(data, BASELINE_KEY)[1e-3]["max_constraint_error"] > 1e-4  # the baseline is (12) too
 
 
+def test_the_baseline_s_time_is_the_one_of_sympy_s_dynamicsymbols():
+    """The baseline spells the time ``sympy.Symbol("t")``: the symbol dynamicsymbols are functions of, so its
+    derivatives are the mechanics' own."""
+    import sympy as sm
+    import sympy.physics.mechanics as me
+
+    phi = me.dynamicsymbols("phi")
+    assert phi.args == (sm.Symbol("t"),)
+    assert phi.diff(sm.Symbol("t")) == me.dynamicsymbols("phi", 1)
+    assert phi.diff(sm.Symbol("t", real=True)) == 0                  # another symbol: the spelling matters
+
+
 def test_the_sympy_baseline_is_the_same_mechanism(quick):
     """sympy.physics.mechanics' equations, derived independently, converge to the library's reference."""
     rows = curve(quick[0], BASELINE_KEY)

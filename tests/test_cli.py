@@ -96,7 +96,8 @@ def test_a_tolerance_too_loose_to_classify_is_refused_before_the_run(tmp_path, c
     path = tmp_path / "loose.png"
     assert main(["simulate", "--case", "4", "--rtol", "1e-2", "--plot", str(path)]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith("closedloop: error: --rtol: must be <= 0.001")
+    assert err.count("\n") == 1 and err.startswith("closedloop: error: --rtol: rtol = 0.01 is too loose")
+    assert err.rstrip().endswith("rerun with rtol <= 0.001")
     assert not path.exists()
     assert main(["simulate", "--case", "4", "--t-end", "1", "--rtol", "1e-3", "--atol", "1e-3"]) == 0
 

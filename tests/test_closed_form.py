@@ -113,11 +113,17 @@ def test_folded_functions_are_shared_by_branches_with_the_same_force_and_missing
 
 
 @pytest.mark.parametrize("which", ["slider_crank", "four_bar"])
-def test_the_generated_partition_determinant_is_det_phi_z(which, request):
-    from closedloop.formulations.closed_form import partition_determinant
+def test_the_partition_determinant_is_det_phi_z(which, request):
+    """linalg.partition_determinant, the one det Phi_z of the formulations and the branch guard, one state and many."""
+    from closedloop.linalg import partition_determinant
 
     system = request.getfixturevalue(which)
     rng = np.random.default_rng(8)
     s = rng.uniform(-3.0, 3.0, size=(system.n, 30))
-    expected = [np.linalg.det(system.jacobian(s[:, k])[:, system.z_index]) for k in range(30)]
-    assert np.allclose(partition_determinant(system)(s), expected, rtol=1e-12, atol=1e-12)
+    jacobians = np.stack([system.jacobian(s[:, k]) for k in range(30)], axis=2)
+    expected = [np.linalg.det(jacobians[:, system.z_index, k]) for k in range(30)]
+    assert np.allclose(partition_determinant(jacobians, system.z_index), expected, rtol=1e-12, atol=1e-12)
+    assert partition_determinant(jacobians[:, :, 4], system.z_index) == pytest.approx(expected[4], rel=1e-12)
+    three = rng.normal(size=(3, 5, 7))                   # r = 3: LU, the same numbers
+    assert np.allclose(partition_determinant(three, [0, 2, 4]),
+                       [np.linalg.det(three[:, [0, 2, 4], k]) for k in range(7)], rtol=1e-12)

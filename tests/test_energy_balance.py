@@ -1,7 +1,7 @@
 """Energy and work: T + Pi conserved without applied forces, and balanced against their work with them.
 
 The works of the drive torque and the gas force per turn and per stroke (closedloop.studies.energy,
-closedloop.gas_law), checked against sympy and quadrature; the balance (T + Pi)(t) - (T + Pi)(0) = W
+closedloop.slider_crank_gas_law), checked against sympy and quadrature; the balance (T + Pi)(t) - (T + Pi)(0) = W
 along runs, with the works of closedloop.studies.energy, with the work integrated with the run
 (simulate(work=True), closedloop.balance), and with a quadrature of the power written out here.
 """
@@ -13,7 +13,7 @@ import pytest
 import sympy as sp
 from scipy.integrate import quad
 
-import closedloop.gas_law as gas_law
+import closedloop.slider_crank_gas_law as gas_law
 from closedloop import (Augmented, Baumgarte, InputError, Minimal, Orthogonal, consistent_initial_state,
                         simulate)
 from closedloop.balance import energy_balance

@@ -1,5 +1,5 @@
 """The gas force of section 4: the printed law and its constants, its branches, its sign in each reading,
-and the numeric code generated from the one sympy expression (closedloop.gas_law)."""
+and the numeric code generated from the one sympy expression (closedloop.slider_crank_gas_law)."""
 
 import math
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-import closedloop.gas_law as gas_law
+import closedloop.slider_crank_gas_law as gas_law
 from closedloop.slider_crank import GasForce, gas_force, get_reading, slider_crank_system
 
 

@@ -8,8 +8,9 @@ from scipy.integrate import DOP853, ode, solve_ivp
 
 from closedloop import InputError, IntegrationError, Minimal, simulate
 from closedloop.formulations import ClosedForm
-from closedloop.simulation import dop853
-from closedloop.simulation.dop853 import REJECTION_FACTOR, STEP_CONTROL_BETA, _Calls, _counting, _HeldStep, continuous_extension, integrate_segment, interpolate, step_stages
+from closedloop.simulation import dop853, dop853_dense
+from closedloop.simulation.dop853 import REJECTION_FACTOR, STEP_CONTROL_BETA, Calls, _counting, integrate_segment
+from closedloop.simulation.dop853_dense import HeldStep, continuous_extension, interpolate, step_stages
 from closedloop.slider_crank import get_case, initial_state
 
 
@@ -274,12 +275,12 @@ def test_a_step_whose_recorded_stages_are_missing_or_wrong_is_recomputed(recorde
     ya, yb = plain.step_ends[:, 2], plain.step_ends[:, 3]
     times = np.linspace(ta, tb, 7)[1:-1]
     if recorded == "missing":
-        step, stages = _HeldStep(ta, ya, tb, yb, False, math.nan, math.nan, 0, times.size), [0.0] * 26
+        step, stages = HeldStep(ta, ya, tb, yb, False, math.nan, math.nan, 0, times.size), [0.0] * 26
     else:
         t1, y1 = plain.step_times[1], plain.step_ends[:, 1]
         other = step_stages(oscillator, t1, y1, ta - t1, oscillator(t1, y1), t_end=ta, y_end=ya)[:13]
-        first = ta + dop853._C[1] * (tb - ta)
-        step, stages = _HeldStep(ta, ya, tb, yb, True, first, tb, 0, times.size), other.ravel().tolist()
+        first = ta + DOP853.C[1] * (tb - ta)
+        step, stages = HeldStep(ta, ya, tb, yb, True, first, tb, 0, times.size), other.ravel().tolist()
     calls = []
 
     def counted(t, y):
@@ -287,7 +288,7 @@ def test_a_step_whose_recorded_stages_are_missing_or_wrong_is_recomputed(recorde
         return oscillator(t, y)
 
     states = np.empty((2, times.size))
-    dop853._evaluate_held_steps(counted, [step], stages, times, states)
+    dop853_dense.evaluate_held_steps(counted, [step], stages, times, states)
     assert len(calls) == 16
     assert np.max(np.abs(states - np.vstack((np.cos(times), -np.sin(times))))) < 1e-9
 
@@ -372,7 +373,7 @@ def test_outputs_evaluated_together_are_those_of_each_step_alone(t_end, count):
 
 
 def test_the_counting_right_hand_side_records_its_calls_only_while_asked():
-    calls = _Calls()
+    calls = Calls()
     counted, evaluations, record = _counting(oscillator, math.inf, [], calls)
     counted(0.0, np.array([1.0, 0.0]))
     record(False)

@@ -9,7 +9,7 @@ __version__ = "0.1.0"
 
 from .errors import (ClosedLoopError, ConvergenceError, InputError, IntegrationError,
                      SingularConfigurationError)
-from .formulations import (Augmented, Baumgarte, ClosedForm, Minimal, NullSpace, Orthogonal, Projected,
+from .formulations import (Augmented, Baumgarte, ClosedForm, Formulation, Minimal, NullSpace, Orthogonal, Projected,
                            baumgarte_from_step, baumgarte_p2, formulation_from_name, project_state)
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
@@ -17,12 +17,8 @@ from .linalg import null_space_basis
 from .model import DerivedModel, MultibodyModel, System, derive
 from .simulation import SimulationResult, simulate
 
-from . import _moved
-
-_moved.install(__name__)
-
 __all__ = [
-    "Augmented", "Baumgarte", "Orthogonal", "Minimal", "baumgarte_from_step", "baumgarte_p2", "formulation_from_name",
+    "Formulation", "Augmented", "Baumgarte", "Orthogonal", "Minimal", "baumgarte_from_step", "baumgarte_p2", "formulation_from_name",
     "MultibodyModel", "DerivedModel", "derive", "System", "SwitchedForce",
     "InitialState", "consistent_initial_state", "simulate", "SimulationResult",
     "NullSpace", "null_space_basis", "ClosedForm",

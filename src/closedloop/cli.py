@@ -48,13 +48,12 @@ __all__ = ["main", "build_parser"]
 
 DEFAULT_T_END = 20.0
 #: The command answers with the library's cheapest route at the default tolerance (chapter 8: the closed
-#: form (26) with the compiled DOP853 reaches every case's accuracy first). Any other is an option:
-#: the default until issue 14 was --formulation baumgarte --method RK45.
+#: form (26) with the compiled DOP853 reaches every case's accuracy first); the formulation is
+#: ClosedForm, named by the registry (build_parser). Any other is an option.
 DEFAULT_METHOD = "ode.dop853"
 #: The method for a formulation that does not take DEFAULT_METHOD (Projected: it resets the state of a
 #: solve_ivp Runge-Kutta method after every step).
 FALLBACK_METHOD = "DOP853"
-DEFAULT_FORMULATION = "closed-form"
 #: What the summary and the figure say of a run whose warnings keep it from being classified.
 NOT_CLASSIFIED = "not classified (see the warning)"
 
@@ -120,8 +119,10 @@ class _Parser(argparse.ArgumentParser):
 def build_parser():
     """The argument parser of ``closedloop``."""
     from . import __version__
-    from .formulations import FORMULATION_NAMES
+    from .formulations import FORMULATION_NAMES, ClosedForm
     from .slider_crank import CLASSIFY_RTOL_LIMIT, DEFAULT_READING, READINGS
+
+    default_formulation = ClosedForm.name
 
     parser = _Parser(prog="closedloop", description="Simulate the slider-crank of Khang, Quyen and Mai Anh (2018).")
     parser.add_argument("--version", action="version", version=f"closedloop {__version__}")
@@ -131,8 +132,8 @@ def build_parser():
     sim.add_argument("--phi0", type=str, help="initial crank angle [rad]")
     sim.add_argument("--dphi0", type=str, help="initial crank speed [rad/s]")
     sim.add_argument("--t-end", type=str, default=str(DEFAULT_T_END), help="final time [s] (default 20)")
-    sim.add_argument("--formulation", default=DEFAULT_FORMULATION,
-                     help=f"{', '.join(FORMULATION_NAMES)} (default {DEFAULT_FORMULATION})")
+    sim.add_argument("--formulation", default=default_formulation,
+                     help=f"{', '.join(FORMULATION_NAMES)} (default {default_formulation})")
     sim.add_argument("--method",
                      help=f"integration method: {', '.join(SOLVER_METHODS)} (default {DEFAULT_METHOD} where the "
                           f"formulation takes it, else {FALLBACK_METHOD})")
@@ -245,14 +246,13 @@ def run_simulate(args):
     from .formulations import formulation_from_name
     from .simulation import simulate
     from .simulation.options import methods_taking
-    from .slider_crank import CLASSIFY_RTOL_LIMIT, classify_motion, get_reading, initial_state, slider_crank_system
+    from .slider_crank import (check_classification_tolerance, classify_motion, get_reading, initial_state,
+                               slider_crank_system)
 
     case, phi0, dphi0 = _initial_condition(args)
     t_end = _positive("t_end", args.t_end, unit="s")
     rtol, atol = _positive("rtol", args.rtol), _positive("atol", args.atol)
-    if rtol > CLASSIFY_RTOL_LIMIT:                   # classify_motion would refuse the run after it
-        raise InputError(f"--rtol: must be <= {CLASSIFY_RTOL_LIMIT:g} for the motion to be classified "
-                         f"(a full rotation told from an oscillation), got {rtol:g}")
+    check_classification_tolerance("--rtol", rtol)   # before the run: classify_motion would refuse it after
     formulation = formulation_from_name(args.formulation, _number("alpha", args.alpha), _number("beta", args.beta))
     methods = methods_taking(formulation)
     method = args.method if args.method is not None else (
@@ -276,8 +276,8 @@ def run_simulate(args):
         "dphi0": dphi0,
         "t_end": t_end,
         "formulation": formulation.name,
-        "alpha": getattr(formulation, "alpha", None),
-        "beta": getattr(formulation, "beta", None),
+        "alpha": formulation.gains[0] if formulation.gains else None,
+        "beta": formulation.gains[1] if formulation.gains else None,
         "method": method,
         "rtol": rtol,
         "atol": atol,

@@ -50,7 +50,7 @@ import numpy
 
 from .loading import one_time
 
-__all__ = ["ENVIRONMENT_VARIABLE", "cache_folder", "source_fingerprint", "sympy_version", "cache_key",
+__all__ = ["ENVIRONMENT_VARIABLE", "cache_folder", "package_fingerprint", "source_fingerprint", "sympy_version", "cache_key",
            "cached_code", "module_text"]
 
 #: The environment variable that names the cache folder.
@@ -74,18 +74,38 @@ def cache_folder():
     return Path.home() / ".cache" / "closedloop"
 
 
-@lru_cache(maxsize=None)
-def source_fingerprint():
+def package_fingerprint(leave_out=()):
     """sha256 of the package's source: every ``*.py`` below its root, in path order, as path and bytes.
 
-    Read once per process (about a millisecond). An edit anywhere in the package changes
-    every key, so no cached function can outlive the code that generated it.
+    Parameters
+    ----------
+    leave_out : sequence of str, optional
+        Paths relative to the package root (``"cli.py"``) to leave out; a folder
+        named here (``"plotting"``) leaves out everything below it.
+
+    Returns
+    -------
+    str
+        The hexadecimal digest.  A new module, or a module moved to another
+        folder, changes it too; line endings do not.
     """
     digest = hashlib.sha256()
     for path in sorted(_PACKAGE_ROOT.rglob("*.py")):
-        relative = path.relative_to(_PACKAGE_ROOT).as_posix()
-        digest.update(relative.encode() + b"\0" + path.read_bytes() + b"\0")
+        relative = path.relative_to(_PACKAGE_ROOT)
+        if relative.as_posix() in leave_out or relative.parts[0] in leave_out:
+            continue
+        digest.update(relative.as_posix().encode() + b"\0" + path.read_bytes().replace(b"\r\n", b"\n") + b"\0")
     return digest.hexdigest()
+
+
+@lru_cache(maxsize=None)
+def source_fingerprint():
+    """:func:`package_fingerprint` of the whole package, part of every key; read once per process.
+
+    An edit anywhere in the package changes every key, so no cached function can
+    outlive the code that generated it.
+    """
+    return package_fingerprint()
 
 
 @lru_cache(maxsize=None)

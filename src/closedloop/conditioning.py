@@ -15,19 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .linalg import orthogonal_complement
+from .linalg import augmented_matrix, orthogonal_complement
 
 __all__ = ["Conditioning", "conditioning", "augmented_matrix", "equilibration", "generalized_mass"]
-
-
-def augmented_matrix(M, Phi):
-    """``[[M, Phi_s^T], [Phi_s, 0]]``, the matrix of (12) and (16)."""
-    n, r = M.shape[0], Phi.shape[0]
-    K = np.zeros((n + r, n + r))
-    K[:n, :n] = M
-    K[:n, n:] = Phi.T
-    K[n:, :n] = Phi
-    return K
 
 
 def equilibration(M, Phi):

@@ -15,18 +15,38 @@ from .errors import InputError, SingularConfigurationError, at_time
 from .loading import first_use
 from .validation import one_of
 
-__all__ = ["solve_augmented", "solve_small", "solve_dense", "solve_many", "condition_number", "orthogonal_complement",
-           "orthogonal_complement_many", "partition_condition", "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT",
-           "NULL_SPACE_BASES", "NEAR_RANK_LOSS", "NEARLY_SINGULAR"]
+__all__ = ["augmented_matrix", "solve_augmented", "solve_small", "solve_dense", "solve_many", "condition_number",
+           "orthogonal_complement", "orthogonal_complement_many", "partition_condition", "partition_determinant",
+           "null_space_basis", "SINGULAR_TOLERANCE", "CONDITION_LIMIT", "RANK_LIMIT", "NULL_SPACE_BASES", "NEAR_RANK_LOSS",
+           "NEARLY_SINGULAR"]
 
 
-def solve_augmented(M, Phi, p1, p2, t=None):
-    """Solve ``[[M, Phi^T], [Phi, 0]] [s''; lambda] = [p1; p2]`` (12), (16)."""
+def augmented_matrix(M, Phi):
+    """``[[M, Phi_s^T], [Phi_s, 0]]``, the matrix of (12) and (16).
+
+    Parameters
+    ----------
+    M : ndarray, shape (n, n)
+        The mass matrix.
+    Phi : ndarray, shape (r, n)
+        The constraint Jacobian Phi_s.
+
+    Returns
+    -------
+    ndarray, shape (n + r, n + r)
+    """
     n, r = M.shape[0], Phi.shape[0]
     K = np.zeros((n + r, n + r))
     K[:n, :n] = M
     K[:n, n:] = Phi.T
     K[n:, :n] = Phi
+    return K
+
+
+def solve_augmented(M, Phi, p1, p2, t=None):
+    """Solve ``[[M, Phi^T], [Phi, 0]] [s''; lambda] = [p1; p2]`` (12), (16)."""
+    n = M.shape[0]
+    K = augmented_matrix(M, Phi)
     try:
         x = solve_dense(K, np.concatenate((p1, p2)))
     except np.linalg.LinAlgError:
@@ -61,8 +81,8 @@ def _qr():
 
 def solve_dense(A, b):
     """Solve ``A x = b`` for a square real A (n >= 3) by LAPACK's ``dgesv``, the routine numpy.linalg.solve
-    calls too: the same LU with partial pivoting, without numpy's checks and dispatch, which cost 3 of
-    its 4 microseconds for the 5 x 5 augmented matrix of (12), solved at every right-hand side.
+    calls too: the same LU with partial pivoting, without numpy's checks and dispatch, which cost most of
+    a small solve such as the augmented matrix of (12) at every right-hand side.
 
     Raises ``numpy.linalg.LinAlgError`` for an exactly singular A (a zero pivot), like numpy.
     """
@@ -143,6 +163,37 @@ def condition_number(A):
         return math.inf if det == 0.0 else top / det          # sigma_max / sigma_min = sigma_max^2 / |det A|
     singular_values = np.linalg.svd(A, compute_uv=False)
     return math.inf if singular_values[-1] == 0.0 else float(singular_values[0] / singular_values[-1])
+
+
+def partition_determinant(Phi, z_index):
+    """det Phi_z, the determinant of the columns z of Phi_s in the partition s = (q, z) of (20).
+
+    R of (20) exists where it is not zero, and its sign tells the two assembly
+    branches of a partition apart: a change of sign along a motion is a dead
+    position of the independent coordinates q.
+
+    Parameters
+    ----------
+    Phi : ndarray, shape (r, n) or (r, n, K)
+        Phi_s at one configuration, or at K configurations along the last axis.
+    z_index : sequence of int
+        The r dependent coordinates.
+
+    Returns
+    -------
+    float or ndarray, shape (K,)
+        det Phi_z (closed form for r <= 2, LU otherwise).
+    """
+    Phi = np.asarray(Phi, dtype=float)
+    if Phi.ndim == 2:
+        return float(partition_determinant(Phi[:, :, None], z_index)[0])
+    Phi_z = Phi[:, list(z_index), :]
+    r = Phi_z.shape[0]
+    if r == 1:
+        return Phi_z[0, 0].copy()
+    if r == 2:
+        return Phi_z[0, 0] * Phi_z[1, 1] - Phi_z[0, 1] * Phi_z[1, 0]
+    return np.linalg.det(np.moveaxis(Phi_z, 2, 0))
 
 
 def partition_condition(Phi, z_index):

@@ -4,11 +4,11 @@ The library imports scipy.integrate (0.3 to 0.5 s of process time, with scipy.li
 scipy.sparse and scipy.special), scipy.linalg (0.2 to 0.3 s: LAPACK's dgesv, QR), scipy.optimize (the search for a
 change point) and scipy's compiled DOP853 only when something needs them, and loads generated code
 once per system (:mod:`closedloop.codecache`), so that the command line answers without the ones
-it does not use (issue 14).
+it does not use.
 Such a load is the process's, once: it is not part of the run during which it happens.  A run's
 ``cpu_time`` (:func:`closedloop.simulate`) is the difference of two readings of :func:`run_clock`,
-which leaves the loads made between them out (without that, the first run of a process counted
-0.3 to 0.5 s more than the same run after it: chapter 3's table of CPU times showed it).
+which leaves the loads made between them out, so that the first run of a process costs what the
+same run costs after it.
 
 The module imports nothing from closedloop, so any module may use it.
 """

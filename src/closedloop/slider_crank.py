@@ -21,7 +21,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import gas_law
+from . import slider_crank_gas_law as gas_law
 from .errors import InputError
 from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
@@ -30,6 +30,7 @@ from .simulation import SimulationResult
 from .validation import finite_number, flag, instance_of, one_of, shown
 
 __all__ = [
+    "check_classification_tolerance",
     "SliderCrankParameters",
     "Reading",
     "READINGS",
@@ -151,7 +152,7 @@ class Reading:
 
     @property
     def gas_coefficients(self):
-        """``(282.857, 62.857, 110.000)`` of the gas force (:data:`closedloop.gas_law.PRINTED_COEFFICIENTS`),
+        """``(282.857, 62.857, 110.000)`` of the gas force (:data:`closedloop.slider_crank_gas_law.PRINTED_COEFFICIENTS`),
         scaled by the reading."""
         return tuple(c * self.scale for c in gas_law.PRINTED_COEFFICIENTS)
 
@@ -200,7 +201,7 @@ def gas_force(x, xdot, reading=DEFAULT_READING):
     ``-110 [1 - sin 2 pi (x - 5.25)]`` on 5 <= x <= 5.5; zero for x_C' <= 0 and
     outside the stroke [1.5, 5.5].  The coefficients scale with the reading.
     The sign here is the printed one (F <= 0); how F enters the equations is
-    the reading's ``force_sign``.  The law is that of :mod:`closedloop.gas_law`.
+    the reading's ``force_sign``.  The law is that of :mod:`closedloop.slider_crank_gas_law`.
     """
     reading = get_reading(reading)
     x = np.asarray(x, dtype=float)
@@ -217,7 +218,7 @@ class GasForce(SwitchedForce):
     Switches: ``x_C' = 0`` (the force acts only while the slider moves
     outward; the slider may stick there) and ``x_C = 5`` (the formula changes).
     Every form of the force here (one state, K states, sympy) comes from the
-    expressions of :mod:`closedloop.gas_law`.
+    expressions of :mod:`closedloop.slider_crank_gas_law`.
     """
 
     switch_names = ("x_C' = 0", "x_C = 5")
@@ -471,6 +472,28 @@ def motion_codes(excursion):
 CLASSIFY_RTOL_LIMIT = 1e-3
 
 
+def check_classification_tolerance(name, rtol, prefix=""):
+    """Refuse a relative tolerance too loose for :func:`classify_motion`.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name in the message (``"--rtol"``, ``"result"``).
+    rtol : float
+        The relative tolerance, or the largest of several.
+    prefix : str, optional
+        Words before the rule in the message (``"not classified, "``).
+
+    Raises
+    ------
+    InputError
+        If ``rtol`` is above :data:`CLASSIFY_RTOL_LIMIT`.
+    """
+    if rtol > CLASSIFY_RTOL_LIMIT:
+        raise InputError(f"{name}: {prefix}rtol = {rtol:g} is too loose to tell a full rotation from an "
+                         f"oscillation; rerun with rtol <= {CLASSIFY_RTOL_LIMIT:g}")
+
+
 def classify_motion(result, phi0=None) -> str:
     """``"full rotation"`` if the crank ever turns 2 pi beyond its start, else ``"oscillation"``.
 
@@ -494,10 +517,7 @@ def classify_motion(result, phi0=None) -> str:
     warnings = result.warnings
     if warnings:
         raise InputError(f"result: not classified, {warnings[0]}")
-    tolerance = float(np.max(result.rtol))
-    if tolerance > CLASSIFY_RTOL_LIMIT:
-        raise InputError(f"result: not classified, rtol = {tolerance:g} is too loose to tell a full rotation "
-                         f"from an oscillation; rerun with rtol <= {CLASSIFY_RTOL_LIMIT:g}")
+    check_classification_tolerance("result", float(np.max(result.rtol)), "not classified, ")
     phi = result.coordinate("phi")
     start = phi[0] if phi0 is None else phi0
     if phi.size == 0 or not (np.all(np.isfinite(phi)) and np.isfinite(start)):

@@ -13,8 +13,7 @@ small for the mechanisms of this book, the inverses are formed symbolically
 (adjugate over determinant) once, the parameter values of the system are folded
 in, common subexpressions are shared, and the result is generated as one
 ``math``-module function of floats.  At run time there is no matrix assembly
-and no linear solve: for the slider-crank one call costs about 1.5 µs against
-about 15 µs for assembling and solving (12) with numpy.
+and no linear solve.
 
 For an integration segment, where the branch (``mode``) of a switched force
 and the gains are fixed, :func:`closed_form_rhs` goes one step further: when the
@@ -30,12 +29,11 @@ folded in), so that a later run needs no sympy.
 
 The closed form is exactly as singular as R of (20): where det Phi_z = 0 it
 divides by zero and raises.  Near that point it loses digits as R does (about
-cond(Phi_z) times the rounding; measured on a rocking crank: 4e-6 in s'' at
-cond(Phi_z) = 2e9, 3.5 at 2e15) but does not check it, where
+cond(Phi_z) times the rounding) but does not check it, where
 :class:`~closedloop.formulations.Orthogonal` refuses |Phi_s| |Phi_z^-1| above
 :data:`~closedloop.linalg.CONDITION_LIMIT`.  In a run the branch guard (solve_ivp
-methods) or the partition check (ode.dop853) watches det Phi_z's sign between
-steps.  Use :class:`closedloop.formulations.Augmented` or a null-space
+methods and ode.dop853 alike, :mod:`closedloop.simulation.watch`) watches det
+Phi_z's sign between steps.  Use :class:`closedloop.formulations.Augmented` or a null-space
 formulation there.
 """
 
@@ -51,7 +49,7 @@ from ..codecache import cached_code
 from ..errors import InputError, SingularConfigurationError, at_time
 from .redundant import _Stabilised
 
-__all__ = ["ClosedForm", "closed_form_accelerations", "closed_form_rhs", "partition_determinant", "MAX_CLOSED_FORM_SIZE"]
+__all__ = ["ClosedForm", "closed_form_accelerations", "closed_form_rhs", "MAX_CLOSED_FORM_SIZE"]
 
 #: Largest r (for Phi_z) and f (for R^T M R) whose inverse is formed symbolically.
 MAX_CLOSED_FORM_SIZE = 3
@@ -276,39 +274,6 @@ def _folded_rhs(system, mode, alpha, beta):
         by_force[key] = _generate_rhs(model.velocities, [e.xreplace(values) for e in accelerations], model.time,
                                       model.coordinates)
     return by_force[key]
-
-
-def partition_determinant(system):
-    """det Phi_z of the model's partition as a generated numpy function of the coordinates, or None.
-
-    ``determinant(s) -> ndarray`` takes s of shape (n, K) and returns det Phi_z
-    at the K configurations (R of (20) exists where it is not zero).  Formed
-    symbolically for r <= :data:`MAX_CLOSED_FORM_SIZE` with the parameter values
-    folded in; None for a larger r.  Built once per system and kept on it.
-    """
-    if system.r > MAX_CLOSED_FORM_SIZE:
-        return None
-    cached = system.generated.get("partition_determinant")
-    if cached is None:
-        function = _from_disk(system, "partition_determinant", (), _determinant)
-
-        def cached(s):
-            value = np.asarray(function(list(s)), dtype=float)
-            return value if value.shape == s.shape[1:] else np.broadcast_to(value, s.shape[1:])   # a constant
-
-        system.generated["partition_determinant"] = cached
-    return cached
-
-
-def _determinant(system):
-    """det Phi_z as a numpy function ``function(list(s))`` (sympy), for partition_determinant."""
-    import sympy as sp
-
-    model = system.model
-    values = dict(zip(model.parameters, (sp.Float(v) for v in system.parameter_values.tolist())))
-    Phi_z = system.derived.jacobian[:, list(system.z_index)]
-    det = sp.sympify(Phi_z.det(method="berkowitz")).xreplace(values)
-    return sp.lambdify([list(model.coordinates)], det, modules="numpy")
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ import numpy as np
 from ..errors import ConvergenceError, SingularConfigurationError, at_time
 from ..kinematics import solve_dependent
 from ..linalg import (NEAR_RANK_LOSS, NEARLY_SINGULAR, condition_number, orthogonal_complement, partition_condition,
-                      solve_many, solve_small)
+                      partition_determinant, solve_many, solve_small)
 from .base import Formulation
 
 __all__ = ["Minimal", "MinimalUnpacker", "minimal_accelerations", "CONTINUATION_PIECES", "CONTINUATION_STEP"]
@@ -157,7 +157,7 @@ class MinimalUnpacker:
         """Start a segment at the consistent coordinates ``s_start``: its branch is the one to keep."""
         s_start = np.array(s_start, dtype=float)
         self._last_y, self._last_s, self._last_R = None, s_start, None
-        self._side = np.sign(np.linalg.det(self.system.jacobian(s_start)[:, self.system.z_index]))
+        self._side = np.sign(partition_determinant(self.system.jacobian(s_start), self.system.z_index))
 
     def many(self, states, times):
         """``(s, s')`` as n x K arrays for K states (columns), in order along the path (warm-started)."""
@@ -233,7 +233,7 @@ class MinimalUnpacker:
         guess = s_from[zi] if R_from is None else s_from[zi] + R_from[zi] @ (q - s_from[qi])
         s, Phi = solve_dependent(self.system, q, guess, t, return_jacobian=True)
         far = np.max(np.abs(s[zi] - guess)) > CONTINUATION_STEP * (1.0 + np.max(np.abs(guess)))
-        return s, Phi, np.sign(np.linalg.det(Phi[:, zi])), far
+        return s, Phi, np.sign(partition_determinant(Phi, zi)), far
 
     def _solve_on_branch(self, q, t):
         """Newton from the prediction, else continuation in small steps of q, kept on the branch.

@@ -151,7 +151,7 @@ def _projecting_solver(base, system):
 
     def project(t, y):
         s, sd = project_state(system, y[:n], y[n:2 * n], t)
-        return np.concatenate((s, sd, y[2 * n:]))          # y[2n:]: the work W, with simulate(work=True)
+        return np.concatenate((s, sd, y[2 * n:]))          # rule 9 of the contract: the runner's entries kept
 
     class ProjectingSolver(base):
         __doc__ = f"{base.__name__}, with the state projected onto f = 0, f' = 0 after every step."

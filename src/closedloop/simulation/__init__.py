@@ -48,49 +48,43 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     t_end : float, optional
         Final time, > ``t_start``.  Default 20 s.
     t_start : float, optional
-    formulation : Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, ClosedForm or Projected, optional
-        Default ``Baumgarte(5, 5)``, Baumgarte's own choice.
+    formulation : Formulation, optional
+        Any formulation (:data:`closedloop.formulations.REGISTRY` holds the
+        library's); default ``Baumgarte(5, 5)``, Baumgarte's own choice.
     method : str or OdeSolver, optional
-        Any solve_ivp method; default "RK45".  Projected takes only RK23, RK45
-        and DOP853 (see :mod:`closedloop.formulations.projected`).
-    rtol, atol : float, optional
-        Tolerances passed to solve_ivp, > 0.
+        One of :data:`SOLVER_METHODS` or an OdeSolver subclass; default "RK45".
+        A formulation may refuse some (:func:`~closedloop.simulation.options.methods_taking`
+        gives those it takes).
+    rtol, atol : float or array_like, optional
+        Tolerances of the integrator, > 0 (an array: one per state entry).
     t_eval : array_like, optional
-        Output times; default: the solver's own steps.  What they cost and
-        how accurate they are, per method: see the Notes.
+        Increasing output times; default: the integrator's own steps.
     multipliers : bool, optional
         Also compute lambda of (5) at the output times.
     stop_when : callable, optional
-        ``stop_when(t, s, sd) -> float``: the run ends early, at the time this
-        crosses zero upward (e.g. a speed limit for a run-away motion).  The
-        result's ``stopped_at`` is then that time.  It is not evaluated
-        while the mechanism is stuck (its state is then constant).  Not with
-        ``switching="naive"``.
+        ``stop_when(t, s, sd) -> float``: the run ends where this crosses zero
+        upward (the result's ``stopped_at``); not evaluated while the
+        mechanism is stuck.  Not with ``switching="naive"``.
     sticking_resolution : float, optional
-        Sampling interval (s) for the release of a stuck state.
+        Sampling interval [s] for the release of a stuck state.
     max_segments : int, optional
         Bound on the number of segments between switches.
     switching : {"events", "naive"}, optional
-        "events" (default): stop at every switch and apply the sticking rule.
-        "naive": choose the force's branch from the state at every evaluation,
-        with no events (a contrast that chatters; see :mod:`closedloop.simulation.naive`).
+        "events" (default): stop at every switch and apply the rules of
+        :mod:`closedloop.simulation.switching`.  "naive": choose the force's
+        branch from the state at every evaluation (the contrast that chatters).
     max_nfev : int, optional
         Bound on the right-hand-side evaluations of the whole run; default none.
-        A naive run checks it between steps, so it may pass it by one step's
-        evaluations.
     max_steps : int, optional
-        Bound on the accepted integration steps of the whole run (default
-        :data:`MAX_STEPS`).  A run that needs more raises IntegrationError
-        naming the time reached and the step size: typically an explicit
-        method on a stiff problem.
+        Bound on the accepted steps of the whole run (default :data:`MAX_STEPS`).
     work : bool, optional
-        Also integrate the work of the non-conservative forces (the result's
+        Also integrate the work W of the non-conservative forces (the result's
         ``work``), for the energy balance ``Delta(T + Pi) = W``.  Not with
         ``switching="naive"``.
     branch_limit : float, optional
         The branch guard's bound on the Kantorovich number where det Phi_z
-        changes sign (default :data:`BRANCH_LIMIT`; ``math.inf`` turns the guard
-        off, to show what it prevents); see :mod:`closedloop.simulation.solve_ivp_runner`.
+        changes sign (default :data:`BRANCH_LIMIT`; ``math.inf`` turns the
+        guard off); see :mod:`closedloop.simulation.watch`.
     **options
         Further solve_ivp options (``max_step``, ``first_step``, ...).
 
@@ -103,68 +97,23 @@ def simulate(system, initial_state, t_end=20.0, *, t_start=0.0, formulation=None
     InputError
         Before any integration, for a parameter outside its range.
     IntegrationError
-        If the integrator fails (the step size underflows), the run needs more
-        than ``max_steps`` steps or ``max_nfev`` evaluations, the right-hand
-        side overflows, the state stops being finite, or the state chatters on
-        a switch: the message names the time, the quantity that went bad, and
-        what to try instead.  With ``switching="naive"`` the error's
-        attribute ``result`` holds the run up to that time.
+        If the integrator fails, the run needs more than ``max_steps`` steps
+        or ``max_nfev`` evaluations, the right-hand side overflows, the state
+        stops being finite or chatters on a switch: the message names the
+        time, what went bad and what to try.  With ``switching="naive"`` the
+        error's attribute ``result`` holds the run up to that time.
     SingularConfigurationError
-        If the formulation meets a configuration it can not pass (see the
-        formulations and the branch guard of
-        :mod:`closedloop.simulation.solve_ivp_runner`): the message names the time
-        and the condition number that went bad.
+        If the formulation meets a configuration it can not pass: the message
+        names the time and the matrix that became singular.
 
     Notes
     -----
-    **Output times** (``t_eval``) never change the integration: every method
-    takes the same steps and reaches the same end state (to round-off) with and
-    without them, and each output between two step ends comes from the method's own
-    interpolant over the step that holds it (in a segment stopped by a switch,
-    from the step that crossed it, for the times before the switch).  An
-    output is therefore about as accurate as the tolerance asks, not always as
-    accurate as the step ends, which are often better.  Per method:
-
-    - ``"RK45"``: the pair's 4th-order interpolant; no extra right-hand sides.
-    - ``"RK23"``: a 3rd-order Hermite interpolant; no extra right-hand sides.
-    - ``"DOP853"``: the 7th-order continuous extension of Dormand and Prince
-      (Hairer's ``contd8``): 3 extra right-hand sides in every step that holds
-      an output time (a step costs 12), however many outputs it holds.
-    - ``"Radau"``: the collocation polynomial of the step (order 3 inside the
-      step, order 5 at its ends); no extra right-hand sides.
-    - ``"BDF"``, ``"LSODA"``: the interpolating polynomials of their
-      multistep formulas; no extra right-hand sides.
-    - ``"ode.dop853"``: the code steps from switch to switch as without outputs,
-      and the outputs inside a step come from the same 7th-order continuous
-      extension as DOP853's, with the step's stages recorded as the compiled code
-      computes them: 3 extra right-hand sides per step that holds an output time
-      (see :mod:`closedloop.simulation.dop853`).
-
-    Measured on case 2 of the paper over 1 s (ClosedForm, rtol = atol = 1e-9;
-    ``benchmarks/output_grid_cost.py``): 10 000 evenly spaced outputs left
-    the steps and the end state of every method unchanged; nfev unchanged for
-    RK45, RK23, Radau, BDF and LSODA and 1.25 times that without a grid for
-    DOP853 and ode.dop853 (the same with 50 000 outputs).  Against a tight
-    reference integrated from each step's start, the largest error of the
-    outputs was, in units of ``atol + rtol |y|``: RK45 0.68 (0.68 at its step
-    ends), RK23 156 (155), DOP853 0.093 (0.004), Radau 0.57 (0.013), BDF 6.8
-    (6.8), LSODA 1.3 (1.3), ode.dop853 0.051 (0.002): the outputs are within
-    the error the steps already carry, and the low-order and multistep
-    methods' global errors are far above their tolerance anyway.  Process time is
-    another matter: each output costs some (interpolation, unpacking; the
-    residuals |f| and |f'| at the outputs only when first read, see
-    :class:`SimulationResult`), and with DOP853 and ode.dop853 so does each step
-    that holds one.  With 10 000 outputs a run took, against the same run
-    without them (each timed after a run of its own kind): ode.dop853 1.86
-    times as long (1.62 over 20 s, where nearly every step holds outputs),
-    DOP853 1.91 (1.43 over 20 s), RK45 1.42, RK23 1.46, Radau 1.11, BDF 1.21
-    and LSODA 4.00 (1.52 over 20 s).  Of ode.dop853's extra 0.85 ms over 1 s,
-    the three right-hand sides per step are 0.09 ms and the interpolant's
-    arithmetic 0.13 ms; the rest is Python work per step, per segment and per
-    output, on a run that is itself short (1 ms).
-
-    The fixed-step :func:`closedloop.fixed_step.rk4` is not one of these
-    methods and takes no output times: its outputs are its steps.
+    Output times never change the integration: the steps and the end state are
+    those of the run without them, and each output comes from the method's own
+    interpolant over the step that holds it (for DOP853 and "ode.dop853", the
+    7th-order continuous extension, 3 more right-hand sides per step that holds
+    an output).  ``benchmarks/output_grid_cost.py`` measures what outputs cost
+    and how accurate they are, per method.
     """
     formulation = Baumgarte() if formulation is None else formulation
     run_settings = run_options(

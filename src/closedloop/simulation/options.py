@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..formulations import Formulation
+from ..formulations import REGISTRY, Formulation
 from ..kinematics import initial_state_arrays
 from ..linalg import null_space_basis
 from ..methods import IMPLICIT_METHODS, SOLVER_METHODS
@@ -19,6 +19,7 @@ from ..validation import (finite_array, finite_number, flag, instance_of, is_rea
                           shown, shown_array)
 from . import dop853
 from .switching import MIN_PROGRESS, no_progress
+from .work import WORK_NAME, state_size
 
 __all__ = ["RunOptions", "run_options", "methods_taking", "stop_when_value", "SOLVER_OPTIONS", "simulate_parameters", "SOLVER_METHODS", "SWITCHING", "BRANCH_LIMIT",
            "MAX_STEPS", "INITIAL_TOLERANCE", "IMPLICIT_METHODS"]
@@ -129,8 +130,8 @@ def _tolerance_entries(name, tolerance, system, initial_state, formulation, meth
         return float(tolerance.reshape(-1)[0])
     if method == dop853.METHOD or (name == "rtol" and method == "Radau"):
         raise InputError(f"{name}: {method} takes one number, got {tolerance.size}")
-    names = formulation.state_names(system) + (["W"] if work else [])
-    size = formulation.pack(system, initial_state.s, initial_state.sd).size + (1 if work else 0)
+    names = formulation.state_names(system) + ([WORK_NAME] if work else [])
+    size = state_size(formulation.pack(system, initial_state.s, initial_state.sd).size, work)
     if tolerance.shape != (size,):
         raise InputError(f"{name}: need one value or {size}, one per entry of the {formulation.name} state "
                          f"({', '.join(names[:size])}), got "
@@ -158,17 +159,21 @@ def _is_ode_solver(method):
     return issubclass(method, OdeSolver) and method is not OdeSolver
 
 
-def _check_method(formulation, method, switching, options):
+def _check_method(system, formulation, method, switching, options):
     if not isinstance(formulation, Formulation):
         raise InputError(
-            "formulation: expected a Formulation (Augmented, Baumgarte, Orthogonal, Minimal, NullSpace, "
-            f"ClosedForm or Projected), got {formulation!r}"
+            f"formulation: expected a Formulation (one of {', '.join(REGISTRY[name].__name__ for name in REGISTRY)}, "
+            f"or a subclass of closedloop.Formulation), got {formulation!r}"
         )
     if not ((isinstance(method, str) and method in SOLVER_METHODS)
             or (isinstance(method, type) and _is_ode_solver(method))):
         choices = methods_taking(formulation, switching if switching in SWITCHING else "events")
         raise InputError(f"method: unknown {shown(method)}; choose one of {', '.join(choices)}")
     formulation.check_method(method)
+    if method == dop853.METHOD and formulation.integrator(system, method) != method:     # rule 7 of the contract
+        raise InputError(f"method: the {formulation.name} formulation alters the integrator's steps, which the "
+                         f"compiled {dop853.METHOD} cannot do; choose one of "
+                         f"{', '.join(m for m in methods_taking(formulation) if m != dop853.METHOD)}")
     if switching not in SWITCHING:
         raise InputError(f"switching: unknown {switching!r}; choose one of {', '.join(SWITCHING)}")
     if method == dop853.METHOD and switching == "naive":
@@ -203,8 +208,8 @@ def simulate_parameters():
 def _check_option_names(method, options):
     """Refuse a keyword that is neither simulate()'s nor a solver option of ``method``, naming the close match.
 
-    A misspelt option (``max_stp``) went on to solve_ivp, which warned and ignored it: the run was not the
-    one asked for.
+    A misspelt option (``max_stp``) would reach solve_ivp, which warns and ignores it: the run would not be
+    the one asked for.
     """
     if not isinstance(method, str):
         return                                   # an OdeSolver of one's own: its options are its own
@@ -318,7 +323,7 @@ def run_options(system, initial_state, formulation, *, t_start, t_end, method, r
         t_start, t_end, rtol, atol, sticking_resolution, branch_limit)
     multipliers, work = flag("multipliers", multipliers), flag("work", work)
     max_segments = positive_integer("max_segments", max_segments)
-    _check_method(formulation, method, switching, solver_options)
+    _check_method(system, formulation, method, switching, solver_options)
     solver_options = _check_steps(solver_options)
     max_nfev = None if max_nfev is None else positive_integer("max_nfev", max_nfev)
     max_steps = positive_integer("max_steps", max_steps)

@@ -10,6 +10,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..validation import one_of
+from .work import without_work, work_of
 
 __all__ = ["SimulationResult", "SwitchEvent", "Piece", "Outputs", "multipliers", "residual_warnings"]
 
@@ -211,9 +212,8 @@ class Outputs:
             t, y = t[1:], y[:, 1:]           # the first point repeats the last segment's end
         if t.size == 0:
             return
-        work = None
-        if work_row:
-            y, work = y[:-1], y[-1]
+        work = work_of(y) if work_row else None
+        y = without_work(y, work_row)
         s, sd = unpack.many(y, t)           # rule 3 of the formulation contract: in order along the path
         self.pieces.append(Piece(t, s, sd, mode, None, work))
 

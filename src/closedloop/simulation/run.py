@@ -20,6 +20,7 @@ from . import switching as rule
 from . import watch
 from .options import IMPLICIT_METHODS
 from .result import Outputs, SwitchEvent
+from .work import with_work, work_of
 
 __all__ = ["Run", "SegmentEnd", "MAX_RELEASE_SAMPLES"]
 
@@ -91,24 +92,8 @@ class Run:
         unpack.seed(s0)
         rhs = formulation.make_rhs(system, mode, unpack)
         if self.options.work:                       # one more state: W' = tau . s'
-            y0, rhs, unpack = self._with_work(y0, rhs, unpack, mode)
+            y0, rhs, unpack = with_work(self.system, y0, rhs, unpack, mode, self.work_done)
         return y0, unpack, rhs
-
-    def _with_work(self, y0, rhs, unpack, mode):
-        """Append the work W to the state: ``W' = tau(t, s, s') . s'`` on branch ``mode``."""
-        system = self.system
-
-        def rhs_with_work(t, y):
-            x = y[:-1]
-            s, sd = unpack(x, t)
-            power = system.applied_forces(t, s, sd, mode) @ sd
-            return np.append(rhs(t, x), power)
-
-        def unpack_with_work(y, t=None):
-            return unpack(y[:-1], t)
-
-        unpack_with_work.seed = unpack.seed
-        return np.append(y0, self.work_done), rhs_with_work, unpack_with_work
 
     def store_segment(self, t, y, s0, mode, t0):
         """Keep a segment's outputs, unpacked by a fresh unpacker that marches from the segment's start."""
@@ -121,7 +106,7 @@ class Run:
         if event is None:
             return SegmentEnd(self.t_end, None, None, None)
         if self.options.work:
-            self.work_done = float(y_stop[-1])
+            self.work_done = float(work_of(y_stop))
         s_end, sd_end = unpack(y_stop, t_stop)
         return SegmentEnd(t_stop, s_end, sd_end, event)
 

@@ -1,61 +1,34 @@
 """The watch along the accepted steps of a run, on every runner: written once.
 
-Every runner (:mod:`~closedloop.simulation.solve_ivp_runner`, the compiled DOP853 of
-:mod:`~closedloop.simulation.dop853_runner`, naive switching of :mod:`~closedloop.simulation.naive`)
-hands each accepted step end to the run's :class:`PathWatch` (:meth:`~PathWatch.record`) and the
-end of each segment to :meth:`~PathWatch.end`, or, when the segment failed, to
-:meth:`~PathWatch.failed`.  The step ends are checked in batches, during the integration: the
-first after :data:`FIRST_BATCH` step ends, then whenever the step ends not yet checked reach
-:data:`BATCH_GROWTH` times those checked.  A run that meets one of the failures below therefore
-stops after integrating at most about a quarter more than the run up to it (and
-:data:`FIRST_BATCH` steps), and a run that meets none pays for a number of batches that grows
-with the logarithm of its steps.  Each batch raises at the earliest of these failures (but at
-the first, where the branch guard objects within a step of it):
+Every runner (solve_ivp, the compiled DOP853, naive switching) hands each accepted step end
+to the run's :class:`PathWatch` (:meth:`~PathWatch.record`), the end of each segment to
+:meth:`~PathWatch.end` and a failed segment to :meth:`~PathWatch.failed`.  The step ends are
+checked in batches during the integration (the first after :data:`FIRST_BATCH` step ends,
+then whenever those not yet checked reach :data:`BATCH_GROWTH` times those checked), so a run
+that fails stops after at most about a quarter more than the run up to the failure.  Each
+batch raises at the earliest of:
 
-1. **A change point**, where Phi_s loses rank (:mod:`~closedloop.simulation.change_points`), or,
-   for a redundant formulation, a place where two assembly branches only pass near each other
-   and the path's distance to the constraints reached half their gap: the run can not tell
-   which branch it is on.  ``simulate(..., branch_limit=math.inf)`` turns this check off.
-2. **The branch guard** (formulations in redundant coordinates).  Where det Phi_z of the
-   model's partition changes sign between two step ends, a redundant-coordinate formulation
-   either passes a dead position (Phi_s keeps full rank: fine) or jumps to another assembly
-   branch near a configuration where Phi_s nearly loses rank.  The crossing is located on
-   the quintic Hermite interpolant of the positions over the step (their values, velocities
-   and accelerations at both ends) and the Kantorovich number
-   ``h = sigma_max(Phi_s) |f| / sigma_min(Phi_s)^2`` is formed with Phi_s there and the
-   larger |f| of the step's two ends (the run's own distance to the constraints; the
-   interpolant's error is not the run's): Newton's method from
-   the state converges to a unique nearby solution when h < 1/2 (sigma_max standing for
-   the Lipschitz constant of Phi_s, which it matches for constraints made of lengths times
-   sines and cosines).  Above the run's ``branch_limit`` (default
-   :data:`~closedloop.simulation.options.BRANCH_LIMIT`) the state is no longer unambiguously
-   on one branch, and the run stops with a
-   :class:`~closedloop.errors.SingularConfigurationError`; below it the crossing is a dead
-   position passed, and its time goes into the result's ``partition_singularities``.
-3. **A dead position of minimal coordinates** (formulations that guard their branch,
-   :class:`~closedloop.formulations.Minimal`).  At a dead position of q the mechanism goes
-   on along the other assembly branch (det Phi_z changes sign, z keeps its speed), while the
-   equation in q alone turns back on the same branch, with no evaluation beyond the dead
-   position to fail: a smooth motion of the equation, not of the mechanism.  So where the
-   component of q' across the fold (along ``Phi_q^T u``, u the left singular vector of
-   Phi_z's smallest singular value; q' itself when f = 1) changes sign between two step
-   ends, the turning point is located on the quintic Hermite interpolant of q and decided:
-   the branch is followed from q there to as far beyond it as the step's far end lies
-   before it (at least sqrt(eps) (1 + |q|)).  Where the mechanism assembles on its branch there, q turned back on its
-   own (an ordinary turning point); where it does not, the branch ends between the
-   turning point and that point, q turned back at a dead position, and the run stops with
-   a SingularConfigurationError that names the time and the configuration.
-4. **Crawling**: :data:`CRAWL_STEPS` accepted steps in a row of one segment that advance
-   less than :data:`CRAWL_FRACTION` of the run's length together (an implicit method that
-   creeps towards a singular point of the right-hand side, whose Newton iteration fails at
-   every longer step) are stopped with an error that says why, where the state shows it:
-   a :class:`~closedloop.errors.SingularConfigurationError` where Phi_s or the partition is
-   nearly singular there (:func:`diagnosis`), an :class:`~closedloop.errors.IntegrationError`
-   where the force turned NaN or the right-hand side overflowed before.  Short steps with
-   no such cause go on: a fast motion needs them (a heavy slider whips a light crank
-   through a dead centre at 1e6 rad/s in steps of 1e-13 s, and passes), and a force that
-   is singular in time ends where the step size underflows.  Not with
-   ``switching="naive"``, which chatters by design (``max_nfev`` bounds it).
+1. **A change point**, where Phi_s loses rank (:mod:`~closedloop.simulation.change_points`),
+   or, for a redundant formulation, two assembly branches passing so near that the path's
+   distance to the constraints reached half their gap.  ``branch_limit=math.inf`` turns it off.
+2. **The branch guard** (redundant coordinates): where det Phi_z changes sign between two step
+   ends, the crossing is located on the quintic Hermite interpolant of the positions and the
+   Kantorovich number ``h = sigma_max(Phi_s) |f| / sigma_min(Phi_s)^2`` formed there with the
+   larger |f| of the step's ends.  Above the run's ``branch_limit`` (default
+   :data:`~closedloop.simulation.options.BRANCH_LIMIT`) the state is not unambiguously on one
+   branch and the run stops (:class:`~closedloop.errors.SingularConfigurationError`); below
+   it a dead position was passed, recorded in the result's ``partition_singularities``.
+3. **A dead position of minimal coordinates** (formulations with ``guards_branch``): where
+   the component of q' across the fold (along ``Phi_q^T u``, u the left singular vector of
+   Phi_z's smallest singular value) changes sign, the turning point is located and the
+   branch followed beyond it; where the mechanism does not assemble there, q turned back at
+   a dead position (the equation in q turns back where the mechanism goes on along the other
+   branch), and the run stops with an error naming the time and the configuration.
+4. **Crawling**: :data:`CRAWL_STEPS` accepted steps in a row that advance less than
+   :data:`CRAWL_FRACTION` of the run together stop the run with an error that says why,
+   where the state shows it (:func:`diagnosis`: Phi_s or the partition nearly singular, a
+   force that turned NaN, an overflow); short steps without such a cause go on (a fast
+   motion needs them).  Not with ``switching="naive"``, which chatters by design.
 """
 
 from __future__ import annotations
@@ -66,9 +39,10 @@ import numpy as np
 
 from .. import hermite
 from ..errors import ConvergenceError, IntegrationError, SingularConfigurationError
-from ..linalg import NEAR_RANK_LOSS, NEARLY_SINGULAR, partition_condition
+from ..linalg import NEAR_RANK_LOSS, NEARLY_SINGULAR, partition_condition, partition_determinant
 from ..loading import first_use
 from .change_points import EPSILON, branch_error, change_point_error, find_change_point, meeting_point
+from .work import without_work
 
 __all__ = ["PathWatch", "diagnosis", "FIRST_BATCH", "BATCH_GROWTH", "CRAWL_STEPS", "CRAWL_FRACTION",
            "NEAR_RANK_LOSS"]
@@ -90,16 +64,6 @@ def _brentq():
     from scipy.optimize import brentq
 
     return brentq
-
-
-def _determinants(Phi_z):
-    """det of K matrices Phi_z of shape (r, r, K)."""
-    r = Phi_z.shape[0]
-    if r == 1:
-        return Phi_z[0, 0].copy()
-    if r == 2:
-        return Phi_z[0, 0] * Phi_z[1, 1] - Phi_z[0, 1] * Phi_z[1, 0]
-    return np.linalg.det(np.moveaxis(Phi_z, 2, 0))
 
 
 def _configuration(names, s):
@@ -243,7 +207,7 @@ class PathWatch:
         for y in reversed(self.raw_states):
             if np.all(np.isfinite(y)):
                 try:
-                    s, sd = self.unpack(y[:-1] if self.options.work else y, t)
+                    s, sd = self.unpack(without_work(y, self.options.work), t)
                 except ClosedLoopErrors:
                     return ""
                 return self.run.force_clause(t, s, sd, self.modes[-1] if self.modes else None)
@@ -254,9 +218,7 @@ class PathWatch:
         if upto <= self.moved:
             return
         times = self.raw_times[self.moved:upto]
-        states = np.column_stack(self.raw_states[self.moved:upto])
-        if self.options.work:
-            states = states[:-1]
+        states = without_work(np.column_stack(self.raw_states[self.moved:upto]), self.options.work)
         self.moved = upto
         s, sd = self.unpack.many(states, np.asarray(times))
         segment = len(self.modes) - 1
@@ -359,7 +321,7 @@ class PathWatch:
     def _branch_guard(self, steps, times, residuals, jacobians, crossings, failures):
         """Each step where det Phi_z changes sign: the crossing located, the Kantorovich number checked."""
         system = self.system
-        det = _determinants(jacobians[:, system.z_index, :])
+        det = partition_determinant(jacobians, system.z_index)
         flips = steps[(det[steps] * det[steps + 1] < 0.0) | ((det[steps] == 0.0) & (det[steps + 1] != 0.0))
                       | ((det[steps + 1] == 0.0) & (det[steps] != 0.0))]
         brentq = _brentq() if flips.size else None
@@ -368,8 +330,7 @@ class PathWatch:
             position, _ = self._interpolant(k, times, rows)
 
             def det_at(u):
-                Phi = system.jacobian(position(u))
-                return float(_determinants(Phi[:, system.z_index, None])[0])
+                return partition_determinant(system.jacobian(position(u)), system.z_index)
 
             if det[k] == 0.0:
                 u = 0.0
@@ -492,7 +453,7 @@ class PathWatch:
         options, run = self.options, self.run
         why = None
         try:
-            state = y[:-1] if options.work else y
+            state = without_work(y, options.work)
             s = self.unpack(np.asarray(state, dtype=float), t)[0]
             why = diagnosis(self.system, self.formulation, s)
         except ClosedLoopErrors:

@@ -12,7 +12,7 @@ can compare the library with what a reader would otherwise have:
   with the drive torque as ``(A, M(t) N.z)`` on the crank frame A and the gas
   force as ``(P, F N.x)`` on the slider point P = O + x_C N.x;
 - the gas force as a sympy ``Piecewise`` in (x_C, x_C'), the printed law of
-  :func:`closedloop.gas_law.printed_law` (the one source of the law in the
+  :func:`closedloop.slider_crank_gas_law.printed_law` (the one source of the law in the
   library) with the same reading of the data as :class:`closedloop.slider_crank.GasForce`;
   the usual user integrates straight through its switches (no events);
 - Table 1 values substituted, and the rows of (12) below the kinematic
@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import gas_law
+from .. import slider_crank_gas_law as gas_law
 from ..errors import IntegrationError
 from ..methods import SOLVE_IVP_METHODS
 from ..slider_crank import DEFAULT_READING, OMEGA, TORQUE_RIPPLE, SliderCrankParameters, get_reading
@@ -120,7 +120,7 @@ class LagrangesBaseline:
 
         phi, psi, x = me.dynamicsymbols("phi psi x")
         dphi, dpsi, dx = me.dynamicsymbols("phi psi x", 1)
-        t = me.dynamicsymbols._t
+        t = sm.Symbol("t")                                 # dynamicsymbols' time: phi is phi(t)
         l1, a1, m1, I1, l2, a2, m2, I2, m3, g = sm.symbols("l1 a1 m1 I1 l2 a2 m2 I2 m3 g")
 
         N = me.ReferenceFrame("N")

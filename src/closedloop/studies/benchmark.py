@@ -1,97 +1,46 @@
 """Error against run time: which formulation and integrator buy the most accuracy per second.
 
-The study behind ``closedloop benchmark`` and chapter 8.  For each of the
-paper's four cases it integrates the slider-crank over 0-20 s with every entry
-of :func:`study_entries` (the library's formulations and the same model
-written the usual way with ``sympy.physics.mechanics``, :mod:`closedloop.studies.baseline`,
-lambdified with each of its two printers, numpy and math),
-every solve_ivp method of the settings, and a ladder of tolerances
-(``atol = rtol``), and records one row per run.
+The study behind ``closedloop benchmark`` and chapter 8.  For each of the paper's four
+cases it integrates the slider-crank over 0-20 s with every entry of :func:`study_entries`
+(the library's formulations, and the same model written the usual way with
+``sympy.physics.mechanics``, :mod:`closedloop.studies.baseline`, lambdified with each of
+its two printers, numpy and math), every method of the settings and a ladder of tolerances
+(``atol = rtol``), and records one row per run (:func:`run_study` names its fields).  Every
+comparison with the library (:func:`best_row` with ``library=False``,
+:func:`cheapest_choices`, :func:`performance_ratios`) takes the cheapest row of either
+printer: the library is measured against the baseline at its best.
 
-The usual way at its best
--------------------------
-The baseline runs as two entries, :data:`BASELINE_KEYS`: sympy's default
-numpy printer, and the math printer a user tuning for speed picks (scalar
-code, about twice as fast per evaluation).  Every comparison with the library
-(:func:`best_row` with ``library=False``, :func:`cheapest_choices`,
-:func:`performance_ratios`) takes the cheapest row of either, so that the
-library is measured against the baseline's best printer, method and tolerance.
+The reference is the minimal-coordinate solution (:class:`~closedloop.formulations.Minimal`,
+DOP853, rtol = atol = 1e-13); its own accuracy is estimated by its distance to the
+rtol = atol = 1e-12 solution, recorded per case.
 
-Measures of one row
--------------------
-error_t10
-    ``max_k |y_k(10) - y_k,ref(10)|``, the max-norm of the difference of
-    ``y = [phi, psi, x_C, phi', psi', x_C']`` at t = 10 s, from the timed run
-    itself (below), so that the error and the CPU time belong to the same steps.
-max_state_error
-    The same max-norm, maximised over the 2001 points of the common grid
-    ``t = 0, 0.01, ..., 20`` s (every run writes its state there through
-    ``t_eval``, so all are compared at the same times).
-max_constraint_error, max_velocity_constraint_error
-    ``max |f|`` of (32) and ``max |f'| = max |Phi_s s'|`` over the same grid.
-nfev
-    Right-hand-side evaluations of the timed run.
-cpu_s
-    The median over ``repeats`` runs of the process time of one 20 s run that
-    outputs the state at 10 s and 20 s only, so that output work is the same
-    for every entry.  The grid run (with the 2001-point grid) is a separate,
-    untimed run.  It takes the same steps for every method, "ode.dop853"
-    included (the grid is interpolated from each method's dense output; see
-    the Notes of :func:`closedloop.simulate`), up to round-off in the switch
-    times: Minimal with DOP853 locates a switch a few units of the 15th digit
-    apart in the two runs, and its later step starts move by up to about 6e-8 s.
-
-Reference
----------
-The minimal-coordinate solution (:class:`~closedloop.formulations.Minimal`),
-DOP853, rtol = atol = 1e-13.  Its own accuracy is estimated by its distance
-to the rtol = atol = 1e-12 solution, recorded per case.
-
-Pruning (the full grid is too expensive to run blindly)
--------------------------------------------------------
-Along each curve (one case, one entry, one method) the tolerances are taken
-from loose to tight, and the curve stops
-
-- after a run whose median CPU time exceeds ``time_cap_s`` (implicit methods
-  at tight tolerances), or
-- when error_t10 has not fallen below half of the curve's best error, while
-  staying above ``PLATEAU_RATIO`` times rtol, for ``plateau`` tolerances in a
-  row (the error has reached its floor and no longer follows the tolerance).
-
-A failed run (its row records the message, with ``status`` "failed: ...")
-does not stop the curve: tighter tolerances may succeed.
-
-The row where a curve stopped says why, in ``curve_end``.  And every entry runs
-all of its methods (:attr:`Entry.methods`) in the main case (case 2, the full
-rotation the paper starts from); the
-other cases run ``other_case_methods`` only (DOP853, the explicit method of
-highest order, and the compiled ode.dop853), which keeps the default study under
-ten minutes on two cores.  So that the baseline is not held to methods that do not
-suit it, both of its entries run ``baseline_methods`` (DOP853 and LSODA) in the other cases.
+Pruning: along each curve (one case, one entry, one method) the tolerances are taken from
+loose to tight, and the curve stops after a run whose median CPU time exceeds
+``time_cap_s``, or when error_t10 has not fallen below half of the curve's best error while
+staying above ``PLATEAU_RATIO`` times rtol for ``plateau`` tolerances in a row (the error
+has reached its floor).  A failed run does not stop the curve; a row's ``curve_end`` says
+why its curve stopped.  Every entry runs all of its methods in the main case (case 2); the
+other cases run ``other_case_methods`` only (the baseline's entries ``baseline_methods``),
+which keeps the default study under ten minutes on two cores.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
-import os
-import sys
 import time
 from dataclasses import asdict, dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ..codecache import sympy_version
 from ..errors import ClosedLoopError, InputError
-from .. import __version__
 from .. import methods as method_names
 from ..formulations import Augmented, Baumgarte, ClosedForm, Minimal, Orthogonal, Projected, baumgarte_from_step
 from ..methods import SOLVER_METHODS
 from ..simulation import simulate
+from ..simulation.options import methods_taking
 from ..slider_crank import get_case, initial_state, slider_crank_system
 from .baseline import LagrangesBaseline
+from .provenance import provenance, read_with_provenance, source_fingerprint
 
 __all__ = [
     "Entry", "study_entries", "StudySettings", "DEFAULT_SETTINGS", "QUICK_SETTINGS", "run_study",
@@ -119,7 +68,8 @@ BASELINE_KEYS = (BASELINE_KEY, BASELINE_MATH_KEY)
 SOLVE_IVP_METHODS = tuple(method for method in method_names.SOLVE_IVP_METHODS if method != "RK23")
 #: solve_ivp's five, and the compiled DOP853 of scipy.integrate.ode (closedloop.simulation.dop853).
 ALL_METHODS = SOLVE_IVP_METHODS + (method_names.COMPILED_METHOD,)
-EXPLICIT_RK = tuple(method for method in method_names.EXPLICIT_RUNGE_KUTTA_METHODS if method != "RK23")
+#: The methods of SOLVE_IVP_METHODS that the projected formulation takes (it says which, methods_taking asks it).
+EXPLICIT_RK = tuple(method for method in methods_taking(Projected()) if method in SOLVE_IVP_METHODS)
 
 
 @dataclass(frozen=True)
@@ -150,17 +100,22 @@ class Entry:
     modules: str = "numpy"
 
 
+def _entry(formulation, label, suffix="", methods=SOLVE_IVP_METHODS):
+    """The Entry of ``formulation``, keyed by its registry name and ``suffix`` ("-5-5" for a second pair of gains)."""
+    return Entry(formulation.name + suffix, label, formulation, methods)
+
+
 def study_entries():
     """The contestants, in display order: a new formulation is one more line here."""
     return (
-        Entry("augmented", "Augmented (12)", Augmented()),
-        Entry("baumgarte-5-5", "Baumgarte (5, 5)", Baumgarte(5, 5)),
-        Entry("baumgarte-10-10", "Baumgarte (10, 10)", Baumgarte(10, 10)),
-        Entry("baumgarte-step", f"Baumgarte 1/dt, dt = {STEP_RULE_DT:g} s", baumgarte_from_step(STEP_RULE_DT)),
-        Entry("orthogonal", "Orthogonal (26), (5, 5)", Orthogonal(5, 5)),
-        Entry("minimal", "Minimal", Minimal()),
-        Entry("projected", "Projected", Projected(), EXPLICIT_RK),
-        Entry("closed-form", "Closed form (26), (1, 1)", ClosedForm(1, 1), ("DOP853", "ode.dop853")),
+        _entry(Augmented(), "Augmented (12)"),
+        _entry(Baumgarte(5, 5), "Baumgarte (5, 5)", "-5-5"),
+        _entry(Baumgarte(10, 10), "Baumgarte (10, 10)", "-10-10"),
+        _entry(baumgarte_from_step(STEP_RULE_DT), f"Baumgarte 1/dt, dt = {STEP_RULE_DT:g} s", "-step"),
+        _entry(Orthogonal(5, 5), "Orthogonal (26), (5, 5)"),
+        _entry(Minimal(), "Minimal"),
+        _entry(Projected(), "Projected", methods=EXPLICIT_RK),
+        _entry(ClosedForm(1, 1), "Closed form (26), (1, 1)", methods=("DOP853", "ode.dop853")),
         Entry(BASELINE_KEY, "sympy.physics.mechanics, numpy printer", None),
         Entry(BASELINE_MATH_KEY, "sympy.physics.mechanics, math printer", None, modules="math"),
     )
@@ -226,44 +181,6 @@ DEFAULT_SETTINGS = StudySettings()
 #: The quick study: case 2 only, DOP853 and ode.dop853, three tolerances, one repeat (well under a minute).
 QUICK_SETTINGS = StudySettings(quick=True, cases=(2,), methods=("DOP853", "ode.dop853"), other_case_methods=(),
                                rtols=(1e-3, 1e-6, 1e-9), repeats=1, time_cap_s=0.5)
-
-
-# -- provenance ------------------------------------------------------------------------------
-#: Paths in the package, relative to its root, that cannot change a number of the study (output
-#: and examples only); a folder named here leaves out everything below it.
-_NOT_IN_FINGERPRINT = ("cli.py", "output.py", "plotting.py", "plotting", "examples.py", "four_bar.py")
-#: The package's root folder, wherever this module sits below it.
-_PACKAGE_ROOT = Path(__import__("closedloop").__file__).resolve().parent
-
-
-def source_fingerprint():
-    """sha256 of the library's sources that can change the study's numbers.
-
-    Every ``*.py`` below the package root, in subpackages too, except
-    :data:`_NOT_IN_FINGERPRINT`, in path order, each as its relative path and
-    its bytes; so a new module, or a module moved to another folder, counts too.
-    """
-    digest = hashlib.sha256()
-    for path in sorted(_PACKAGE_ROOT.rglob("*.py")):
-        relative = path.relative_to(_PACKAGE_ROOT)
-        if relative.as_posix() in _NOT_IN_FINGERPRINT or relative.parts[0] in _NOT_IN_FINGERPRINT:
-            continue
-        digest.update(relative.as_posix().encode() + b"\0" + path.read_bytes().replace(b"\r\n", b"\n") + b"\0")
-    return digest.hexdigest()
-
-
-def _provenance(settings):
-    import platform                         # here: the command line builds its parser from this module
-    import scipy
-
-    return {
-        "closedloop_version": __version__,
-        "source_fingerprint": source_fingerprint(),
-        "settings": settings.as_dict(),
-        "machine": {"platform": platform.platform(), "machine": platform.machine(),
-                    "cpu_count": os.cpu_count(), "python": sys.version.split()[0],
-                    "numpy": np.__version__, "scipy": scipy.__version__, "sympy": sympy_version()},
-    }
 
 
 # -- running ---------------------------------------------------------------------------------
@@ -398,8 +315,20 @@ def run_study(settings=DEFAULT_SETTINGS, entries=None, progress=None):
     dict
         ``closedloop_version``, ``source_fingerprint``, ``settings``, ``machine``,
         ``baseline_derivation_cpu_s`` (per printer), ``references`` (per case: the reference's
-        agreement with the rtol = 1e-12 solution), ``wall_s`` and ``rows``, the
-        list of rows described in the module docstring.
+        agreement with the rtol = 1e-12 solution), ``wall_s`` and ``rows``, one dict per run
+        with its case, entry, method, rtol, ``status`` and ``curve_end``, and
+
+        - ``error_t10``: ``max_k |y_k(10) - y_k,ref(10)|`` of ``y = [phi, psi, x_C, phi', psi',
+          x_C']`` at t = 10 s, from the timed run itself, so that the error and the CPU time
+          belong to the same steps;
+        - ``max_state_error``: the same max-norm over the 2001 points ``t = 0, 0.01, ..., 20`` s
+          of an untimed run with that grid as ``t_eval`` (the same steps: the grid is
+          interpolated from each method's dense output);
+        - ``max_constraint_error``, ``max_velocity_constraint_error``: ``max |f|`` of (32) and
+          ``max |Phi_s s'|`` over that grid;
+        - ``nfev``: right-hand-side evaluations of the timed run;
+        - ``cpu_s``: the median over ``repeats`` runs of the process time of a 20 s run that
+          outputs the state at 10 s and 20 s only (the same output work for every entry).
     """
     for method in settings.methods + settings.other_case_methods + settings.baseline_methods:
         if method not in SOLVER_METHODS:
@@ -413,7 +342,7 @@ def run_study(settings=DEFAULT_SETTINGS, entries=None, progress=None):
     system = slider_crank_system()
     baselines = _baselines(system, entries)
     grid, check_index = _grid(settings)
-    data = _provenance(settings)
+    data = provenance(settings)
     data.update(baseline_derivation_cpu_s={printer: baseline.derivation_cpu_time
                                            for printer, baseline in baselines.items()},
                 references={}, rows=[])
@@ -441,24 +370,7 @@ def load_study(path):
     Returns the dict of :func:`run_study`, with one more key, ``"current"``: True
     when its ``source_fingerprint`` is that of the library now imported.
     """
-    return _read_with_provenance(path, ("references", "rows"), "a study", "benchmark")
-
-
-def _read_with_provenance(path, parts, what, command):
-    """The JSON file at ``path`` that ``closedloop COMMAND --json`` wrote, with its provenance
-    (:func:`_provenance`) and ``parts`` checked, and one more key, ``"current"``: True when its
-    ``source_fingerprint`` is that of the library now imported.  ``what`` names it in errors.
-    """
-    try:
-        with open(path, encoding="utf-8") as stream:
-            data = json.load(stream)
-    except (OSError, ValueError) as error:
-        raise InputError(f"path: cannot read {what} from {str(path)!r}: {error}") from None
-    missing = {"closedloop_version", "source_fingerprint", "settings", "machine", *parts} - set(data)
-    if missing:
-        raise InputError(f"path: {str(path)!r} lacks {sorted(missing)}; write it with closedloop {command} --json")
-    data["current"] = data["source_fingerprint"] == source_fingerprint()
-    return data
+    return read_with_provenance(path, ("references", "rows"), "a study", "benchmark")
 
 
 def best_row(rows, level, library=None):
@@ -533,12 +445,14 @@ def format_table(data):
 
 
 # -- residual traces (the data of the residual figure) ------------------------------------
-def residual_traces(case=2, method="DOP853", rtol=1e-6, keys=("augmented", "baumgarte-5-5", "orthogonal",
-                                                                 "minimal", "projected", BASELINE_KEY)):
+def residual_traces(case=2, method="DOP853", rtol=1e-6, keys=None):
     """|f| and |f'| against time on the common grid for the main formulations, one method and rtol.
 
-    Returns a dict ``label -> (t, |f|, |f'|)``.
+    ``keys`` are entries' keys; default Augmented, Baumgarte (5, 5), Orthogonal, Minimal, Projected
+    and the baseline's.  Returns a dict ``label -> (t, |f|, |f'|)``.
     """
+    if keys is None:
+        keys = (Augmented.name, Baumgarte.name + "-5-5", Orthogonal.name, Minimal.name, Projected.name, BASELINE_KEY)
     system = slider_crank_system()
     number = get_case(case)
     state = initial_state(system, number.phi0, number.dphi0)

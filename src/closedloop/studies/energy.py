@@ -31,7 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import gas_law, hermite
+from .. import hermite
+from .. import slider_crank_gas_law as gas_law
 from ..errors import InputError
 from ..slider_crank import (DEFAULT_READING, OMEGA, SliderCrankParameters, SliderCrankSystem, drive_torque,
                            gas_force, get_reading, initial_state)
@@ -138,8 +139,8 @@ def gas_outward_work(x, reading=DEFAULT_READING):
                    - c [cos(2 pi (x - 5.25)) - cos(-pi/2)] / (2 pi)
 
     times the reading's ``force_sign``; constant outside [1.5, 5.5], where F = 0.
-    Both pieces are the integrals of the law of :mod:`closedloop.gas_law`,
-    computed by sympy (:func:`closedloop.gas_law.outward_work_functions`).
+    Both pieces are the integrals of the law of :mod:`closedloop.slider_crank_gas_law`,
+    computed by sympy (:func:`closedloop.slider_crank_gas_law.outward_work_functions`).
     The work the gas does while the slider moves out from x_a to x_b is
     ``U(x_b) - U(x_a)``; moving in, it does none.
 

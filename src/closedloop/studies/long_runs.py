@@ -24,7 +24,7 @@ from ..errors import InputError
 from ..formulations import Augmented, Baumgarte, Minimal, Orthogonal
 from ..simulation import simulate
 from ..slider_crank import CASES, initial_state, slider_crank_system
-from .benchmark import _provenance, _read_with_provenance
+from .provenance import provenance, read_with_provenance
 
 __all__ = ["LongRunSettings", "DEFAULT_LONG_RUN_SETTINGS", "long_run_formulations", "run_long_runs",
            "load_long_runs"]
@@ -142,7 +142,7 @@ def run_long_runs(settings=DEFAULT_LONG_RUN_SETTINGS, progress=None):
         }
         if progress is not None:
             progress(f"{formulation.name}: {result.n_steps} steps, {result.cpu_time:.1f} s CPU")
-    data = _provenance(settings)
+    data = provenance(settings)
     data.update(t=_floats(grid), reference_n_steps=int(reference.n_steps), runs=runs,
                 wall_s=time.perf_counter() - wall)
     return data
@@ -155,7 +155,7 @@ def load_long_runs(path):
     more key, ``"current"``: True when its ``source_fingerprint`` is that of the
     library now imported.
     """
-    data = _read_with_provenance(path, ("t", "runs"), "long runs", "long-runs")
+    data = read_with_provenance(path, ("t", "runs"), "long runs", "long-runs")
     data["t"] = np.asarray(data["t"])
     for run in data["runs"].values():
         for key in ("constraint_error", "balance_residual"):
