@@ -1,8 +1,8 @@
 """closedloop: Lagrange's equations with multipliers for closed-loop multibody systems.
 
 A companion library to Khang, Quyen and Mai Anh (2018), "Influence of initial
-conditions on the motion of the slider-crank mechanism".  Equation numbers in
-docstrings are the paper's.
+conditions on movement behaviors of the slide-crank mechanism" (the paper's own
+English title). Equation numbers in docstrings are the paper's.
 """
 
 __version__ = "0.1.0"
