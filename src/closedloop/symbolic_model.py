@@ -248,7 +248,7 @@ def derive(model: MultibodyModel) -> DerivedModel:
     """Derive Lagrange's equations with multipliers (5)-(11); their numeric functions come with them.
 
     Runs once per model (the result is cached on the model, which is immutable).
-    The numeric functions are those of :func:`model_functions`: generated with
+    The numeric functions are those of :func:`closedloop.model.model_functions`: generated with
     common subexpressions eliminated, and loaded from the disk cache when a
     previous run generated them.
 
