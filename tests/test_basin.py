@@ -172,6 +172,31 @@ def test_where_both_rates_vanish_simulate_and_the_map_decide_through_the_same_pr
     assert batch.final_dphi[0] == pytest.approx(result.velocity("phi")[-1], abs=1e-6)
 
 
+def test_no_module_outside_the_simulation_package_reaches_the_switching_rule():
+    """Switches, sticks and releases are decided in closedloop.simulation alone: no other module of the package
+    imports its switching rule (the basin study included), so none can decide one its own way."""
+    import ast
+    from pathlib import Path
+
+    import closedloop
+
+    root = Path(closedloop.__file__).resolve().parent
+    reaching = []
+    for path in sorted(root.rglob("*.py")):
+        if path.parent.name == "simulation":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.ImportFrom):
+                names = [node.module or ""] + [f"{node.module}.{alias.name}" for alias in node.names]
+            elif isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            if any(name.split(".")[-1] == "switching" or ".switching." in name for name in names):
+                reaching.append(f"{path.relative_to(root)}:{node.lineno}")
+    assert not reaching, reaching
+    assert (root / "studies" / "basin.py").exists()            # the scan reads the study
+
+
 # -- any one-degree-of-freedom system: the four-bar -------------------------------------------
 #: A 6 x 6 grid of the four-bar's crank angles [rad] and rates [rad/s]; both outcomes occur on it.
 ANGLES = grid_values(0.0, 2.0 * math.pi, 6)
