@@ -38,6 +38,7 @@ __all__ = ["BasinMap", "BasinMotions", "basin_map", "integrate_outcomes", "refer
            "boundary_cells", "compare_outcomes", "Agreement", "BatchOutcome", "DEFAULT_STEP", "MAX_STEPS",
            "grid_values", "motion_times"]
 
+
 def grid_values(start, stop, count, name="grid"):
     """``count`` evenly spaced values from ``start`` to ``stop``, ``stop`` left out.
 
