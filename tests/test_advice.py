@@ -802,21 +802,21 @@ def test_the_command_line_says_why_a_formulation_does_not_take_a_method(capsys):
 def test_a_basin_map_too_long_for_the_step_limit_advises_a_t_end_that_passes():
     """basin --t-end 1e9 advised "give a step >= 1e+04 s", which the step check then refused: no step both
     resolves the map and keeps within MAX_STEPS. The message now gives t_end bounds that pass both checks."""
-    from closedloop.studies.basin import DEFAULT_STEP, MAX_STEPS, _check_step, _check_time, _step_bound
+    from closedloop.simulation.batch_limits import DEFAULT_STEP, MAX_STEPS, check_span, check_step, step_bound
 
     system = slider_crank_system()
     rates = np.linspace(0.0, 3.0, 4)
     assert main(["basin", "--phi0", "0:2pi:4", "--dphi0", "0:3:4", "--t-end", "1e9"]) == 2
     with pytest.raises(InputError) as error:
-        _check_time(1e9, DEFAULT_STEP, _step_bound(system, rates)[2])
+        check_span(1e9, DEFAULT_STEP, step_bound(system, rates)[2])
     message = str(error.value)
     assert message.startswith(f"t_end: 1e+09 s would take more than {MAX_STEPS} steps")
     numbers = re.search(r"give a t_end <= ([0-9.e+]+) s \(with this step of ([0-9.e+-]+) s\), or <= ([0-9.e+]+) s "
                         r"with a step of ([0-9.e+-]+) s$", message).groups()
     t_short, step, t_long, long_step = map(float, numbers)
     for t_end, h in ((t_short, step), (t_long, long_step)):        # the checks the map makes before it runs
-        _check_time(t_end, h, _step_bound(system, rates)[2])
-        _check_step(system, h, rates)
+        check_span(t_end, h, step_bound(system, rates)[2])
+        check_step(system, h, rates)
     assert t_short < t_long < 1e9
 
 

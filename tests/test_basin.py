@@ -17,6 +17,9 @@ import pytest
 
 from closedloop import InputError, Minimal, consistent_initial_state, simulate
 from closedloop.four_bar import parameter_values
+from closedloop.simulation import switching
+from closedloop.simulation.batch import integrate_batch
+from closedloop.simulation.batch_model import BatchModel
 from closedloop.slider_crank import CASES, MOTIONS, GasForce, initial_state
 from closedloop.studies.basin import (basin_map, boundary_cells, compare_outcomes, grid_values, integrate_outcomes,
                                       reference_outcome, reference_outcomes)
@@ -132,6 +135,68 @@ def test_a_map_keeps_its_cells_motions_from_the_same_integration(slider_crank):
         basin_map(phi0, dphi0, 8.0, motions=-0.5)
 
 
+@pytest.mark.parametrize("phi0", [0.0, math.pi], ids=["outer dead centre", "inner dead centre"])
+def test_where_both_rates_vanish_simulate_and_the_map_decide_through_the_same_probe(slider_crank, phi0, monkeypatch):
+    """At rest at a dead centre x_C' = 0 and x_C'' = 0 on both branches of the gas force: the rates of the switch
+    x_C' = 0 say nothing, and simulate's Run and the batch integrator both ask the rule's probe (each branch's own
+    motion over PROBE_TIME).  They get the same probed rates (their accelerations differ by round-off only), so
+    the same branch, and the cell ends where simulate's run ends."""
+    start = initial_state(slider_crank, phi0, 0.0)
+    model = BatchModel(slider_crank)
+    s, sd = start.s[:, None], start.sd[:, None]
+    point = model.evaluate(0.0, s[model.q], sd[model.q], s[model.z], np.zeros((2, 1), bool))
+    off, on = model.side_rates(0.0, s, point["sd"], s[model.q], sd[model.q], s[model.z], np.zeros((2, 1), bool), 0)
+    assert switching.uninformative(off, on, switching.state_scale(s, sd))[0]
+
+    calls = []
+    probe_rates = switching.probe_rates
+
+    def spy(h, accelerations, t, s, sd, i):
+        rates = probe_rates(h, accelerations, t, s, sd, i)
+        calls.append((i, float(np.ravel(t)[0]), float(np.ravel(rates[0])[0]), float(np.ravel(rates[1])[0])))
+        return rates
+
+    monkeypatch.setattr(switching, "probe_rates", spy)
+    result = simulate(slider_crank, start, 3.0, formulation=Minimal(), method="DOP853", rtol=1e-10, atol=1e-10)
+    by_simulate, calls[:] = calls[:], []
+    batch = integrate_outcomes(slider_crank, [phi0], [0.0], 3.0, finish_early=False)
+    by_map = calls[:]
+    basin_map([phi0], [0.0], 3.0)
+    assert calls[len(by_map):] == by_map                     # the map is the batch integrator's cell
+    (switch, t, probed_off, probed_on), = by_simulate[:1]
+    assert (switch, t) == (0, 0.0) == by_map[0][:2]
+    assert abs(probed_off) > 1e-8 and abs(probed_on) > 1e-8                  # the probe does say something
+    np.testing.assert_allclose(by_map[0][2:], (probed_off, probed_on), rtol=1e-6)
+    assert switching.decide(probed_off, probed_on, False) == switching.decide(*by_map[0][2:], False)
+    assert batch.final_phi[0] == pytest.approx(result.coordinate("phi")[-1], abs=1e-6)
+    assert batch.final_dphi[0] == pytest.approx(result.velocity("phi")[-1], abs=1e-6)
+
+
+def test_no_module_outside_the_simulation_package_reaches_the_switching_rule():
+    """Switches, sticks and releases are decided in closedloop.simulation alone: no other module of the package
+    imports its switching rule (the basin study included), so none can decide one its own way."""
+    import ast
+    from pathlib import Path
+
+    import closedloop
+
+    root = Path(closedloop.__file__).resolve().parent
+    reaching = []
+    for path in sorted(root.rglob("*.py")):
+        if path.parent.name == "simulation":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.ImportFrom):
+                names = [node.module or ""] + [f"{node.module}.{alias.name}" for alias in node.names]
+            elif isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            if any(name.split(".")[-1] == "switching" or ".switching." in name for name in names):
+                reaching.append(f"{path.relative_to(root)}:{node.lineno}")
+    assert not reaching, reaching
+    assert (root / "studies" / "basin.py").exists()            # the scan reads the study
+
+
 # -- any one-degree-of-freedom system: the four-bar -------------------------------------------
 #: A 6 x 6 grid of the four-bar's crank angles [rad] and rates [rad/s]; both outcomes occur on it.
 ANGLES = grid_values(0.0, 2.0 * math.pi, 6)
@@ -165,7 +230,8 @@ def cells():
 
 @pytest.fixture(scope="module")
 def batch(four_bar, cells):
-    return integrate_outcomes(four_bar, *cells, T_END, initial_state=open_branch_start)
+    """The engine's batch integrator alone: nothing of the slider-crank's module takes part."""
+    return integrate_batch(four_bar, *cells, T_END, initial_state=open_branch_start)
 
 
 @pytest.fixture(scope="module")

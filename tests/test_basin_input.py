@@ -7,8 +7,8 @@ import pytest
 
 from closedloop import InputError
 from closedloop.cli import main
-from closedloop.studies.basin import (MAX_ANGLE_PER_STEP, MAX_CELL_STEPS, MAX_STEPS, basin_map, grid_values,
-                                     integrate_outcomes)
+from closedloop.simulation.batch_limits import MAX_ANGLE_PER_STEP, MAX_CELL_STEPS, MAX_STEPS
+from closedloop.studies.basin import basin_map, grid_values, integrate_outcomes
 from closedloop.slider_crank import slider_crank_system
 
 
@@ -43,9 +43,9 @@ def test_the_work_limit_counts_the_whole_map_not_one_worker_s_share(monkeypatch)
     """The limit was checked in each worker on its share, so two workers let a map of twice the limit
     run. With the limit lowered to 3000 cell-steps, a 2 x 2 map of 1000 steps (4000 in all, 2000 a
     worker) is refused with one worker and with two."""
-    import closedloop.studies.basin
+    import closedloop.simulation.batch_limits
 
-    monkeypatch.setattr(closedloop.studies.basin, "MAX_CELL_STEPS", 3000)
+    monkeypatch.setattr(closedloop.simulation.batch_limits, "MAX_CELL_STEPS", 3000)
     phi0, dphi0 = grid_values(0.0, 2 * math.pi, 2), grid_values(0.0, 1.0, 2)
     for workers in (1, 2):
         with pytest.raises(InputError, match=r"^t_end: 4 cells x t_end / step = 4e\+03 cell-steps"):

@@ -24,6 +24,7 @@ from .model import System
 from .validation import instance_of, positive_integer, positive_number
 
 __all__ = [
+    "rk4_step",
     "rk4",
     "FixedStepResult",
     "rk4_stability_function",
@@ -38,6 +39,38 @@ __all__ = [
 #: The smallest |f(s0)| [m] that :func:`rk4_stability_map` starts from: far above the round-off of |f|
 #: (about 1e-15 m here), so that the growth it returns is that of the error equation (15).
 MIN_START_ERROR = 1e-9
+
+
+def rk4_step(slope, t, y, step, k1=None):
+    """One step of the classical Runge-Kutta scheme: ``y(t + step)`` of ``y' = slope(t, y)``.
+
+    The library's one RK4 step: :func:`rk4`, the stability map's batch, the switching
+    rule's probe and the batch integrator all take it.
+
+    Parameters
+    ----------
+    slope : callable
+        ``slope(t, y)``, an array of the shape of ``y``.
+    t : float or ndarray
+        Time at the start [s] (one per column of ``y`` for a batch).
+    y : ndarray
+        State at the start, one state or one per column.
+    step : float or ndarray
+        Step [s] (one per column for a batch).
+    k1 : ndarray, optional
+        ``slope(t, y)`` when the caller has it already.
+
+    Returns
+    -------
+    ndarray
+        The state after the step, ``y + step/6 (k1 + 2 k2 + 2 k3 + k4)``.
+    """
+    if k1 is None:
+        k1 = slope(t, y)
+    k2 = slope(t + step / 2, y + step / 2 * k1)
+    k3 = slope(t + step / 2, y + step / 2 * k2)
+    k4 = slope(t + step, y + step * k3)
+    return y + step / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
 
 
 def rk4_stability_function(z):
@@ -190,14 +223,10 @@ def rk4(system, formulation, s0, sd0, step, n_steps, t_start=0.0, divergence=1e6
     t = t_start
     for k in range(n_steps):
         try:
-            k1 = rhs(t, y)
-            k2 = rhs(t + 0.5 * step, y + 0.5 * step * k1)
-            k3 = rhs(t + 0.5 * step, y + 0.5 * step * k2)
-            k4 = rhs(t + step, y + step * k3)
+            y = rk4_step(rhs, t, y, step)
         except (OverflowError, FloatingPointError) as error:
             raise IntegrationError(f"rk4: the right-hand side overflowed at t = {t:.6g} s ({error}) "
                                    f"with dt = {step:.3g} s; take a smaller step") from None
-        y = y + (step / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         t = t_start + (k + 1) * step
         if not np.all(np.isfinite(y)):
             diverged_at = t
@@ -321,12 +350,7 @@ def _stability_map_at_once(system, s0, sd0, start_error, step, alpha_steps, beta
         if cells.size == 0:
             break
         t = k * step
-        now = y[:, cells]
-        k1 = rhs(t, now, cells)
-        k2 = rhs(t + 0.5 * step, now + 0.5 * step * k1, cells)
-        k3 = rhs(t + 0.5 * step, now + 0.5 * step * k2, cells)
-        k4 = rhs(t + step, now + step * k3, cells)
-        new = now + (step / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        new = rk4_step(lambda time, state: rhs(time, state, cells), t, y[:, cells], step)
         finite = np.isfinite(new).all(axis=0)
         active[cells[~finite]] = False
         cells, new = cells[finite], new[:, finite]

@@ -27,6 +27,7 @@ from .forces import SwitchedForce
 from .kinematics import InitialState, consistent_initial_state
 from .model import MultibodyModel, System
 from .simulation import SimulationResult
+from .simulation.batch import full_turn
 from .validation import finite_number, flag, instance_of, one_of, shown
 
 __all__ = [
@@ -462,7 +463,7 @@ def motion_codes(excursion):
         1 (``MOTIONS[1]``, "full rotation") where the crank turned at least
         2 pi away from its start, else 0 (``MOTIONS[0]``, "oscillation").
     """
-    codes = (np.asarray(excursion, dtype=float) >= 2.0 * math.pi).astype(int)
+    codes = full_turn(excursion).astype(int)
     return codes if codes.ndim else int(codes)
 
 

@@ -20,8 +20,8 @@ def minimal_accelerations(M, p1, Phi, gamma, R, z_index):
 
     With ``s' = R q'`` (20), ``s'' = R q'' + c`` where c of (10) has ``c_q = 0``;
     projecting (8) onto R (the orthogonality theorem (18)) removes lambda.
-    Written once for :class:`Minimal` (one state) and the basin map's batch
-    integrator (K states, :mod:`closedloop.studies.basin`).
+    Written once for :class:`Minimal` (one state) and the batch integrator
+    (K states, :mod:`closedloop.simulation.batch_model`).
 
     Parameters
     ----------

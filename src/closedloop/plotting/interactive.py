@@ -59,9 +59,9 @@ def basin_motions(basin, sample=0.2, workers=1):
     -------
     BasinMotions
     """
-    from ..studies.basin import basin_map, _motion_times
+    from ..studies.basin import basin_map, motion_times
 
-    samples = _motion_times(basin.t_end, sample)
+    samples = motion_times(basin.t_end, sample)
     kept = getattr(basin, "motions", None)
     if kept is not None and kept.times.shape == samples.shape and np.allclose(kept.times, samples, rtol=0,
                                                                                  atol=1e-12):

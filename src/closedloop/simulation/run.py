@@ -30,13 +30,6 @@ __all__ = ["Run", "SegmentEnd", "MAX_RELEASE_SAMPLES"]
 MAX_RELEASE_SAMPLES = 1_000_000
 
 
-def _scale(s, sd):
-    """``1 + max |s_k|, |s'_k|``: the size of a state, for the thresholds of the switching rule."""
-    sizes = [abs(v) for v in s.tolist() + sd.tolist()]          # Python floats: a few entries, no numpy calls
-    largest = max(sizes)
-    return 1.0 + (math.nan if any(v != v for v in sizes) else largest)   # NaN as numpy's max gives it
-
-
 class SegmentEnd(NamedTuple):
     """Where a segment stopped: at ``t_end`` (``event`` None), at switch ``event``, or at stop_when."""
 
@@ -197,11 +190,13 @@ class Run:
         own motions over :data:`~closedloop.simulation.switching.PROBE_TIME` decide.
         """
         off, on = self.side_rates(t, s, sd, mode, i)
-        if stalled or rule.uninformative(off, on, _scale(s, sd)):
-            off, on = (rule.probe(self.force.switching_functions, lambda time, q, qd, b=branch: self._accelerations(
-                time, q, qd, b), t, s, sd)[i] / rule.PROBE_TIME
-                for branch in (mode[:i] + (False,) + mode[i + 1:], mode[:i] + (True,) + mode[i + 1:]))
-        side, sticks = rule.decide(off, on, mode[i])
+
+        def accelerations(side):
+            branch = mode[:i] + (side,) + mode[i + 1:]
+            return lambda time, q, qd: self._accelerations(time, q, qd, branch)
+
+        side, sticks = rule.choose_side(off, on, mode[i], rule.state_scale(s, sd), stalled, lambda _: rule.probe_rates(
+            self.force.switching_functions, accelerations, t, s, sd, i))
         if sticks:
             if not self.force.can_stick[i]:
                 raise rule.refuse_sliding(t, self.names[i])
@@ -215,7 +210,7 @@ class Run:
             return (), None
         values = self.force.switching_functions(t, s, sd)
         mode = tuple(bool(v > 0) for v in values)
-        scale = _scale(s, sd)
+        scale = rule.state_scale(s, sd)
         for i, v in enumerate(values):
             if rule.on_surface(v, scale):
                 mode, action = self.decide(t, s, sd, mode, i)

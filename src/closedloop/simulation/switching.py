@@ -1,5 +1,5 @@
 """The switching rule, written once over K states: :func:`closedloop.simulate`, its compiled-DOP853
-runner and the batch integrator of the basin map all decide with these functions.
+runner and the batch integrator (:mod:`~closedloop.simulation.batch`) all decide with these functions.
 
 A switched force (:class:`closedloop.forces.SwitchedForce`) has switching functions h_i(t, s, s').
 Each integration segment runs on one branch (``mode``) of every switch, so its right-hand side is
@@ -39,11 +39,12 @@ import numpy as np
 
 from ..codecache import cached_code
 from ..errors import IntegrationError
+from ..fixed_step import rk4_step
 
 __all__ = ["RATE_STEP", "SURFACE", "MIN_PROGRESS", "MAX_STALLS", "RELEASE_XTOL", "switching_rate", "decide",
            "on_surface", "on_chosen_side", "CHOSEN_SIDE", "release_margin", "side_after_release", "locate_release", "no_progress",
            "refuse_sliding", "chattering_error", "forcing_period", "RATE_FLOOR", "PROBE_TIME", "uninformative",
-           "probe"]
+           "probe", "probe_rates", "choose_side", "state_scale"]
 
 #: Forward-difference step of the rates dh/dt along the motion [s].
 RATE_STEP = 1e-7
@@ -115,9 +116,85 @@ def decide(off, on, side):
     return new_side, sticks
 
 
+def state_scale(s, sd):
+    """``1 + max |s_k|, |s'_k|``: the size of a state, for the thresholds of the switching rule.
+
+    One state (``s``, ``sd`` of shape (n,)) gives a float, NaN if the state holds one;
+    K states (shape (n, K)) give an array of shape (K,).
+    """
+    if np.ndim(s) == 2:
+        return 1.0 + np.abs(np.concatenate((s, sd))).max(axis=0)
+    sizes = [abs(v) for v in s.tolist() + sd.tolist()]          # Python floats: a few entries, no numpy calls
+    largest = max(sizes)
+    return 1.0 + (np.nan if any(v != v for v in sizes) else largest)   # NaN as numpy's max gives it
+
+
 def uninformative(off, on, scale):
-    """Whether the rates on both branches vanish (to :data:`RATE_FLOOR` x ``scale``): probe instead."""
+    """Whether the rates on both branches vanish (to :data:`RATE_FLOOR` x ``scale``): probe instead.
+
+    Floats give a bool; arrays (K states) an array of bool.
+    """
+    if any(isinstance(a, np.ndarray) for a in (off, on, scale)):
+        return np.maximum(np.abs(off), np.abs(on)) <= RATE_FLOOR * scale
     return max(abs(float(off)), abs(float(on))) <= RATE_FLOOR * scale
+
+
+def choose_side(off, on, side, scale, stalled, probed):
+    """The branch of a switch at states on its surface, as :func:`decide` gives it: ``(new side, sticks)``.
+
+    The rates ``off``, ``on`` decide, but where they vanish on both branches
+    (:func:`uninformative`) or where the state stalled there (the segment the rates
+    chose stopped at once), the probe's rates (:func:`probe_rates`) decide in their
+    place.  :class:`~closedloop.simulation.run.Run` (one state) and the batch
+    integrator (K states) both choose with this function.
+
+    Parameters
+    ----------
+    off, on : float or ndarray, shape (K,)
+        Rates of the switching function with the switch off and on.
+    side : bool or ndarray of bool
+        The branch each state is on.
+    scale : float or ndarray
+        :func:`state_scale` of each state.
+    stalled : bool or ndarray of bool
+    probed : callable
+        ``probed(where) -> (off, on)``: the probe's rates at the states where the
+        boolean ``where`` is True (one state: ``where`` is True).
+
+    Returns
+    -------
+    new_side, sticks : bool or ndarray of bool
+    """
+    needs = stalled | uninformative(off, on, scale)
+    if isinstance(needs, np.ndarray):
+        if np.any(needs):
+            off, on = np.array(off, dtype=float), np.array(on, dtype=float)
+            off[needs], on[needs] = probed(needs)
+    elif needs:
+        off, on = probed(True)
+    return decide(off, on, side)
+
+
+def probe_rates(h, accelerations, t, s, sd, i):
+    """The rates that stand in for ``(off, on)`` where the contact is degenerate: ``h_i`` after
+    :data:`PROBE_TIME` of each branch's own motion (:func:`probe`), over :data:`PROBE_TIME`.
+
+    Parameters
+    ----------
+    h : callable
+        ``h(t, s, s')``, the switching values (shape (k,), or (k, K) for K states).
+    accelerations : callable
+        ``accelerations(side)`` gives the function ``s''(t, s, s')`` of (12) with switch i
+        off (``side`` False) or on (True) and every other switch on its branch.
+    t, s, sd : the states on the surface (one, or K as columns).
+    i : int
+        The switch.
+
+    Returns
+    -------
+    off, on : float or ndarray
+    """
+    return tuple(probe(h, accelerations(side), t, s, sd)[i] / PROBE_TIME for side in (False, True))
 
 
 def probe(h, accelerations, t, s, sd, duration=PROBE_TIME, steps=PROBE_STEPS):
@@ -126,22 +203,18 @@ def probe(h, accelerations, t, s, sd, duration=PROBE_TIME, steps=PROBE_STEPS):
     Classical Runge-Kutta with ``steps`` steps: where the first-order rates of a
     contact vanish on both branches, the sign of h after a short stretch of each
     branch's own motion says which way that motion leaves the surface, and
-    ``h / duration`` takes the place of the rate in :func:`decide`.
+    ``h / duration`` takes the place of the rate in :func:`decide`.  One state
+    (``s``, ``sd`` of shape (n,)) or K states (shape (n, K), ``t`` a float or (K,)).
     """
     step = duration / steps
     y = np.concatenate((s, sd))
-    n = s.size
+    n = s.shape[0]
 
     def slope(time, state):
         return np.concatenate((state[n:], accelerations(time, state[:n], state[n:])))
 
     for k in range(steps):
-        time = t + k * step
-        k1 = slope(time, y)
-        k2 = slope(time + step / 2, y + step / 2 * k1)
-        k3 = slope(time + step / 2, y + step / 2 * k2)
-        k4 = slope(time + step, y + step * k3)
-        y = y + step / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        y = rk4_step(slope, t + k * step, y, step)
     return np.asarray(h(t + duration, y[:n], y[n:]))
 
 
@@ -160,7 +233,11 @@ def on_chosen_side(value, side):
     (a slider at rest just past a dead centre, which moves off the surface and comes
     back to it a moment later, stalled so).  An exact zero counts as
     :data:`CHOSEN_SIDE` on the chosen side: ``+`` on the "on" branch, ``-`` on the "off" one.
+    The batch integrator locates its crossings from such a start the same way (arrays of
+    values and sides).
     """
+    if isinstance(value, np.ndarray):                  # K states, each on its own side
+        return np.where(value == 0.0, np.where(side, CHOSEN_SIDE, -CHOSEN_SIDE), value)
     if value != 0.0:
         return value
     return CHOSEN_SIDE if side else -CHOSEN_SIDE
