@@ -19,8 +19,8 @@ EDITIONS = ("", "vi/")
 
 
 def documented_modules():
-    """The modules the page documents, in its order (its ``.. automodule::`` lines)."""
-    return re.findall(r"^\.\. automodule:: (\S+)", PAGE.read_text(encoding="utf-8"), flags=re.MULTILINE)
+    """The modules the page documents, in its order (its ``.. library-module::`` lines)."""
+    return re.findall(r"^\.\. library-module:: (\S+)", PAGE.read_text(encoding="utf-8"), flags=re.MULTILINE)
 
 
 def imported_modules():

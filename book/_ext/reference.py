@@ -29,6 +29,7 @@ from sphinx import addnodes
 from sphinx.errors import PycodeError
 from sphinx.pycode import ModuleAnalyzer
 from sphinx.transforms import SphinxTransform
+from sphinx.util.docutils import SphinxDirective
 
 PACKAGE = "closedloop"
 #: ``|f|``: an absolute value or a norm, as the docstrings write it in plain text
@@ -62,8 +63,8 @@ def home_comment(name, obj):
     """The ``#:`` comment of a constant where the library defines it, as lines ([] if it has none).
 
     A package that exports a constant imports it, without the comment, and autodoc's ``automodule``
-    leaves out a constant with no comment in the module it documents: the page names such a
-    constant with ``autodata``, and the entry takes its home module's comment."""
+    leaves out a constant with no comment in the module it documents: :class:`LibraryModule` names
+    such a constant with ``autodata``, and the entry takes its home module's comment."""
     for module_name, module in sorted(sys.modules.items()):
         if module_name.split(".")[0] != PACKAGE or getattr(module, name, _MISSING) is not obj:
             continue
@@ -187,7 +188,28 @@ class DocstringsStayEnglish(SphinxTransform):
                 node["entries"] = []
 
 
+class LibraryModule(SphinxDirective):
+    """``.. library-module:: closedloop.x``: ``automodule`` with its members, and an ``autodata`` for
+    each constant the module exports without documenting it itself (it imports it): autodoc's
+    ``automodule`` leaves such a constant out, and :func:`fill_constant` gives it its home's comment."""
+
+    required_arguments = 1
+
+    def run(self):
+        name = self.arguments[0]
+        module = importlib.import_module(name)
+        documented = ModuleAnalyzer.for_module(name).find_attr_docs()
+        lines = [f".. automodule:: {name}", "   :members:", ""]
+        for member in getattr(module, "__all__", ()):
+            obj = getattr(module, member)
+            if not (inspect.isroutine(obj) or inspect.isclass(obj) or inspect.ismodule(obj)) \
+                    and ("", member) not in documented:
+                lines += [f".. autodata:: {name}.{member}", ""]
+        return self.parse_text_to_nodes("\n".join(lines))
+
+
 def setup(app):
+    app.add_directive("library-module", LibraryModule)
     app.setup_extension("sphinx.ext.autodoc")
     app.setup_extension("sphinx.ext.napoleon")
     app.add_transform(DocstringsStayEnglish)
