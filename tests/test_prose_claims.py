@@ -220,6 +220,8 @@ CLAIMS = [
      "The adaptive runs classify", ()),
     ("12-basins.md", "ch12-map-step",
      "Why, then, can a fixed step of", ()),
+    ("13-four-bar.md", "ch13-ex3-stopping-checks",
+     "In these runs", ()),
     ("13-four-bar.md", "ch13-cond-phi-z-growth",
      "towards the change points", ()),
     ("13-four-bar.md", "ch13-cond-augmented-growth",
