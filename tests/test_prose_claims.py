@@ -221,7 +221,7 @@ CLAIMS = [
     ("12-basins.md", "ch12-map-step",
      "Why, then, can a fixed step of", ()),
     ("12-basins.md", "ch12-disagreeing-cells",
-     "with the map; the printout would list", ()),
+     "checked cells that disagree with the map is", ()),
     ("12-basins.md", "ch12-ex1-predicted",
      "energy barrier", ("7",)),
     ("12-basins.md", "ch12-ex1-bracket-minus-predicted",
