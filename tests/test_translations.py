@@ -290,6 +290,36 @@ def test_the_words_of_the_outputs_are_translated(built_site):
     assert buttons == {}, "English buttons of code cells on Vietnamese pages"
 
 
+def pasted_words(page_html):
+    """The words a ``{glue:text}`` role pasted into a built page's prose (MyST-NB's ``span.pasted-text``),
+    in order: the pastes that hold a word, not a number alone."""
+    from bs4 import BeautifulSoup
+
+    spans = BeautifulSoup(page_html, "html.parser").select("article span.pasted-text")
+    return [text for text in (span.get_text() for span in spans) if re.search(r"[^\W\d_]{2,}", text)]
+
+
+def test_the_words_pasted_into_the_prose_are_translated(built_site):
+    """A sentence's words that a glue role pastes from the shared English execution ("in three of the
+    four cases", "RK45 or DOP853") are shown in Vietnamese on the Vietnamese page: each is a message of
+    the page's catalogue (its numbers parameters), translated, and put in place."""
+    translatable = _load("translatable")
+    wrong, pasted = {}, 0
+    for page in toc_pages():
+        english = pasted_words((built_site / f"{page}.html").read_text(encoding="utf-8"))
+        vietnamese = pasted_words((built_site / "vi" / f"{page}.html").read_text(encoding="utf-8"))
+        catalogue = {message.id: message.string for message in translations.read_catalog(LOCALE / f"{page}.po")
+                     if message.id and message.string and not message.fuzzy}
+        pasted += len(english)
+        missing = [word for word in english if translatable.message_of(word)[0] not in catalogue]
+        expected = [translatable.localised(word, catalogue.get) for word in english]
+        if missing or expected != vietnamese:
+            wrong[page] = (missing[:3], [(e, v) for e, v in zip(expected, vietnamese) if e != v][:3],
+                           len(english), len(vietnamese))
+    assert pasted > 5, "the test reads no pasted words: has MyST-NB's class for them changed?"
+    assert wrong == {}, "pages whose pasted words are in no catalogue, or not shown translated: (missing, shown)"
+
+
 def test_the_output_words_are_read_and_put_back():
     """The extension finds the words of an HTML output and puts a translation back in their place only."""
     translatable = _load("translatable")

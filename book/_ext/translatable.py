@@ -2,7 +2,7 @@
 
 The English sources are the only source of content; a translated edition (``book/_ext/editions.py``)
 takes every word from the page's gettext catalogue, ``locales/<language>/LC_MESSAGES/<page>.po``.
-Sphinx's gettext handles paragraphs, titles and captions. Three kinds of text need this extension.
+Sphinx's gettext handles paragraphs, titles and captions. Four kinds of text need this extension.
 
 **Display equations and text diagrams, translated without being parsed again.** Sphinx translates a
 "literal" node (a display equation, a code block, raw HTML) by parsing ``"::\\n\\n   " + msgstr``, the
@@ -29,6 +29,13 @@ The gettext build is made to keep the outputs that the HTML build shows (MyST-NB
 plain-text ones), so the two see the same words. Everything else in an output (printed text,
 LaTeX, numbers, code, interactive figures) stays out of the catalogues: it is computed, and
 changes whenever the computation does.
+
+**The words a glue role pastes into the prose.** A sentence whose words depend on a value ("in
+three of the four cases", a method's name) has them pasted by a ``{glue:text}`` role, from the
+shared (English) execution. The gettext build reads each such paste as a message of the page's
+catalogue (:class:`glued_words`, numbers as parameters), and a translated edition puts the
+translation in after Sphinx's ``Locale`` has translated the paragraph around it
+(:class:`TranslatePastedWords`).
 
 **The interface around the pages.** The theme's and Sphinx's words ("On this page", "Link to this
 heading", "previous page", the colour modes, the search page) are in the edition's interface
@@ -167,6 +174,65 @@ class translated_html(nodes.raw, addnodes.translatable):
         markup = _rewrite(self.astext(), lambda text: localised(text, lookup))
         self.children = [nodes.Text(markup)]
         self.rawsource = markup
+
+
+#: The class MyST-NB gives the words a ``{glue:text}`` role pastes into the prose.
+PASTED = "pasted-text"
+
+
+def _pasted_words(node) -> bool:
+    return isinstance(node, nodes.inline) and PASTED in node.get("classes", ()) \
+        and _has_words(message_of(node.astext())[0])
+
+
+class glued_words(nodes.inline, addnodes.translatable):
+    """Words a ``{glue:text}`` role pasted into the prose ("three of the four", a method's name in a
+    sentence), in the gettext build: one message of the page's catalogue, its numbers parameters
+    (:func:`message_of`). A translated edition puts the translation in after Sphinx's ``Locale``
+    (:class:`TranslatePastedWords`), which parses each translated paragraph again and pastes anew."""
+
+    def preserve_original_messages(self) -> None:
+        self.setdefault("original_messages", [message_of(self.astext())[0]])
+
+    def extract_original_messages(self) -> list[str]:
+        return list(self.get("original_messages", ()))
+
+    def apply_translated_message(self, original_message: str, translated_message: str) -> None:
+        pass                                     # the gettext build only reads the message
+
+
+class MarkPastedWords(SphinxTransform):
+    """In the gettext build: the words pasted by a ``{glue:text}`` role become :class:`glued_words`, so
+    that the catalogue holds them. Before Sphinx's ``PreserveTranslatableMessages`` (priority 10)."""
+
+    default_priority = 6
+
+    def apply(self, **kwargs) -> None:
+        if self.app.builder.name != "gettext":
+            return
+        for node in list(self.document.findall(_pasted_words)):
+            words = glued_words(node.rawsource, "", *node.children, **node.attributes)
+            words.source, words.line = node.source, node.line
+            node.replace_self(words)
+
+
+class TranslatePastedWords(SphinxTransform):
+    """In a translated edition, after Sphinx's ``Locale`` (priority 20): the words a ``{glue:text}``
+    role pasted into a paragraph, translated through the page's catalogue (numbers put back)."""
+
+    default_priority = 25
+
+    def apply(self, **kwargs) -> None:
+        if (self.config.language or SOURCE_LANGUAGE) == SOURCE_LANGUAGE:
+            return
+        catalogue = _page_catalogue(self)
+        if catalogue is None:
+            return
+        for node in list(self.document.findall(_pasted_words)):
+            text = node.astext()
+            translated = localised(text, catalogue.gettext)
+            if translated != text:
+                node.children = [nodes.Text(translated)]
 
 
 def _in_outputs(node) -> bool:
@@ -333,6 +399,8 @@ def gettext_sees_the_html_outputs(app, config):
 
 def setup(app):
     app.add_transform(MarkTranslatableParts)
+    app.add_transform(MarkPastedWords)
+    app.add_transform(TranslatePastedWords)
     app.add_transform(TranslateLiteralNodes)
     app.add_post_transform(TranslateCodePrompts)
     app.connect("config-inited", gettext_sees_the_html_outputs)
