@@ -223,8 +223,6 @@ class TranslatePastedWords(SphinxTransform):
     default_priority = 25
 
     def apply(self, **kwargs) -> None:
-        if (self.config.language or SOURCE_LANGUAGE) == SOURCE_LANGUAGE:
-            return
         catalogue = _page_catalogue(self)
         if catalogue is None:
             return
@@ -271,9 +269,12 @@ class MarkTranslatableParts(SphinxTransform):
 
 
 def _page_catalogue(transform):
+    """The page's catalogue in a translated edition; None in the source language, or if it has none."""
     from sphinx.locale import init as init_locale
     from sphinx.util.i18n import docname_to_domain
 
+    if (transform.config.language or SOURCE_LANGUAGE) == SOURCE_LANGUAGE:
+        return None
     folders = [str(Path(transform.env.srcdir, folder)) for folder in transform.config.locale_dirs]
     domain = docname_to_domain(transform.env.docname, transform.config.gettext_compact)
     catalogue, found = init_locale(folders, transform.config.language, domain)
@@ -288,8 +289,6 @@ class TranslateLiteralNodes(SphinxTransform):
     default_priority = 19
 
     def apply(self, **kwargs) -> None:
-        if (self.config.language or SOURCE_LANGUAGE) == SOURCE_LANGUAGE:
-            return
         catalogue = _page_catalogue(self)
         if catalogue is None:
             return
