@@ -130,18 +130,35 @@ def link_or_code(app, env, node, contnode):
         return None
     if node["reftarget"] in dir(builtins):
         return contnode
-    documented = env.get_domain("py").objects
     for candidate in candidates(node):
         obj = lookup(candidate)
         if obj is _MISSING:
             continue
+        entry = None
         if candidate.split(".")[0] == PACKAGE and not isinstance(obj, (bool, int, float, str, tuple)):
-            for name, entry in documented.items():
-                if name.split(".")[0] == PACKAGE and lookup(name) is obj:
-                    uri = app.builder.get_relative_uri(node["refdoc"], entry.docname)
-                    return nodes.reference("", "", contnode, internal=True, refuri=f"{uri}#{entry.node_id}")
-        return contnode
+            entry = entries_by_object(app, env).get(id(obj))
+        if entry is None:
+            return contnode
+        uri = app.builder.get_relative_uri(node["refdoc"], entry.docname)
+        return nodes.reference("", "", contnode, internal=True, refuri=f"{uri}#{entry.node_id}")
     return None
+
+
+def entries_by_object(app, env):
+    """The library's documented entries by the ``id`` of their object, made once per build (the
+    references are resolved after every page has been read)."""
+    if getattr(app, "closedloop_entries", None) is None:
+        app.closedloop_entries = {}
+        for name, entry in env.get_domain("py").objects.items():
+            obj = lookup(name) if name.split(".")[0] == PACKAGE else _MISSING
+            if obj is not _MISSING:
+                app.closedloop_entries.setdefault(id(obj), entry)
+    return app.closedloop_entries
+
+
+def forget_entries(app, env):
+    """``env-updated``: the entries of the previous build are not this one's."""
+    app.closedloop_entries = None
 
 
 def _from_a_docstring(node):
@@ -217,4 +234,5 @@ def setup(app):
     app.connect("autodoc-process-docstring", read_docstring)
     app.connect("autodoc-skip-member", skip_exported_above)
     app.connect("missing-reference", link_or_code)
+    app.connect("env-updated", forget_entries)
     return {"parallel_read_safe": False, "parallel_write_safe": True}
