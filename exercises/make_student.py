@@ -56,6 +56,21 @@ def student_code(lines):
     return out
 
 
+def _closing_fence(lines, i, fence):
+    """The index of the line that closes the directive opened at line ``i`` with ``fence``."""
+    j = i + 1
+    while j < len(lines) and lines[j].strip() != fence:
+        j += 1
+    return j
+
+
+def _past_solution(lines, i, match, gated):
+    """The line after the solution directive opened at line ``i`` (``match``), and whether what follows
+    lies between a ``{solution-start}`` and its ``{solution-end}``."""
+    gates = {"solution": gated, "solution-start": True, "solution-end": False}
+    return _closing_fence(lines, i, match.group("fence")) + 1, gates[match.group("name")]
+
+
 def student_markdown(text: str) -> str:
     """The MyST source of the student version (see the module docstring)."""
     lines = text.splitlines(keepends=True)
@@ -64,10 +79,7 @@ def student_markdown(text: str) -> str:
         match = FENCE.match(lines[i])
         name = match.group("name") if match else None
         if name in ("solution", "solution-start", "solution-end"):
-            j = i + 1                                   # skip the directive to its closing fence
-            while j < len(lines) and lines[j].strip() != match.group("fence"):
-                j += 1
-            i, gated = j + 1, {"solution": gated, "solution-start": True, "solution-end": False}[name]
+            i, gated = _past_solution(lines, i, match, gated)
             continue
         if name == "exercise" and not gated:         # a plain heading: Jupyter cannot render directives
             title = lines[i][match.end():].strip()
@@ -84,9 +96,7 @@ def student_markdown(text: str) -> str:
             i = j + 1
             continue
         if name == "code-cell":
-            j = i + 1
-            while j < len(lines) and lines[j].strip() != match.group("fence"):
-                j += 1
+            j = _closing_fence(lines, i, match.group("fence"))
             body = lines[i + 1: j]
             has_solution = any(line.strip().startswith("# BEGIN SOLUTION") for line in body)
             if not gated or has_solution:
@@ -111,10 +121,7 @@ def markdown_without_solutions(text: str, gated: bool = False) -> tuple[str, boo
         match = FENCE.match(lines[i])
         name = match.group("name") if match else None
         if name in ("solution", "solution-start", "solution-end"):
-            j = i + 1                                   # skip the directive to its closing fence
-            while j < len(lines) and lines[j].strip() != match.group("fence"):
-                j += 1
-            i, gated = j + 1, {"solution": gated, "solution-start": True, "solution-end": False}[name]
+            i, gated = _past_solution(lines, i, match, gated)
             continue
         if not gated:
             out.append(lines[i])
