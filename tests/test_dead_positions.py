@@ -37,6 +37,17 @@ TOLERANCES = (1e-6, 1e-9)
 HANG_SECONDS = 60
 
 
+def slider_crank_energies(p, phi, psi, dphi, dpsi, coordinate, speed):
+    """T and Pi of section 3 of the paper, with phi and psi (and their rates) functions of one
+    ``coordinate`` whose rate is ``speed``; x_C = l1 cos phi - l2 cos psi."""
+    x = p.l1 * sp.cos(phi) - p.l2 * sp.cos(psi)
+    dx = sp.diff(x, coordinate) * speed
+    T = ((p.I1 + p.m1 * p.a1**2 + p.m2 * p.l1**2) * dphi**2 + (p.I2 + p.m2 * p.a2**2) * dpsi**2 + p.m3 * dx**2) / 2 \
+        - p.m2 * p.l1 * p.a2 * dphi * dpsi * sp.cos(phi - psi)
+    Pi = (p.m1 * p.a1 + p.m2 * p.l1) * p.g * sp.sin(phi) - p.m2 * p.g * p.a2 * sp.sin(psi)
+    return T, Pi
+
+
 def psi_coordinate_equation(p):
     """The rocking crank's Lagrangian in the rod angle psi alone: ``(psi'', T + Pi, phi(psi))`` as functions.
 
@@ -46,11 +57,7 @@ def psi_coordinate_equation(p):
     psi, dpsi = sp.symbols("psi dpsi")
     phi = sp.asin(p.l2 / p.l1 * sp.sin(psi))
     dphi = sp.diff(phi, psi) * dpsi
-    x = p.l1 * sp.cos(phi) - p.l2 * sp.cos(psi)
-    dx = sp.diff(x, psi) * dpsi
-    T = ((p.I1 + p.m1 * p.a1**2 + p.m2 * p.l1**2) * dphi**2 + (p.I2 + p.m2 * p.a2**2) * dpsi**2 + p.m3 * dx**2) / 2 \
-        - p.m2 * p.l1 * p.a2 * dphi * dpsi * sp.cos(phi - psi)
-    Pi = (p.m1 * p.a1 + p.m2 * p.l1) * p.g * sp.sin(phi) - p.m2 * p.g * p.a2 * sp.sin(psi)
+    T, Pi = slider_crank_energies(p, phi, psi, dphi, dpsi, psi, dpsi)
     mass = sp.diff(T, dpsi, 2)                           # T = mass(psi) psi'^2 / 2
     acceleration = -(sp.diff(mass, psi) * dpsi**2 / 2 + sp.diff(Pi, psi)) / mass
     return (sp.lambdify((psi, dpsi), acceleration, "math"), sp.lambdify((psi, dpsi), T + Pi, "math"),
@@ -196,11 +203,7 @@ def crank_angle_equation(p):
     phi, dphi = sp.symbols("phi dphi")
     psi = sp.pi - sp.asin(p.l1 / p.l2 * sp.sin(phi))
     dpsi = sp.diff(psi, phi) * dphi
-    x = p.l1 * sp.cos(phi) - p.l2 * sp.cos(psi)
-    dx = sp.diff(x, phi) * dphi
-    T = ((p.I1 + p.m1 * p.a1**2 + p.m2 * p.l1**2) * dphi**2 + (p.I2 + p.m2 * p.a2**2) * dpsi**2 + p.m3 * dx**2) / 2 \
-        - p.m2 * p.l1 * p.a2 * dphi * dpsi * sp.cos(phi - psi)
-    Pi = (p.m1 * p.a1 + p.m2 * p.l1) * p.g * sp.sin(phi) - p.m2 * p.g * p.a2 * sp.sin(psi)
+    T, Pi = slider_crank_energies(p, phi, psi, dphi, dpsi, phi, dphi)
     mass = sp.diff(T, dphi, 2)
     return sp.lambdify((phi, dphi), -(sp.diff(mass, phi) * dphi**2 / 2 + sp.diff(Pi, phi)) / mass, "math")
 
