@@ -21,6 +21,8 @@ import pytest
 from closedloop import InputError
 from closedloop.studies.basin import basin_map, grid_values
 
+from ._processes import started_workers
+
 #: A 10 x 6 grid across the basin boundary, 6 s long: both outcomes, and cells that stick.
 PHI0 = grid_values(0.0, 2 * math.pi, 10)
 DPHI0 = grid_values(0.0, 3.0, 6)
@@ -94,11 +96,8 @@ def running(processes):
 def test_no_worker_outlives_its_parent_killed_by_sigkill(child):
     parent = subprocess.Popen([sys.executable, "-c", child])
     try:
-        watched = psutil.Process(parent.pid)
         deadline = time.monotonic() + 60
-        while len(workers := watched.children(recursive=True)) < 2:           # the workers have started
-            assert time.monotonic() < deadline and parent.poll() is None
-            time.sleep(0.05)
+        workers = started_workers(parent, timeout=60, poll=0.05)
         start = [sum(worker.cpu_times()[:2]) for worker in workers]
         while min(sum(w.cpu_times()[:2]) - s for w, s in zip(workers, start)) < 0.5:   # and they compute
             assert time.monotonic() < deadline and parent.poll() is None

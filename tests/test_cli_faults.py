@@ -20,6 +20,8 @@ import closedloop.studies.benchmark
 import closedloop.studies.long_runs
 from closedloop.cli import build_parser, main
 
+from ._processes import started_workers
+
 SRC = str(Path(__file__).resolve().parents[1] / "src")
 BASIN = ["basin", "--phi0", "0:2pi:2", "--dphi0", "0.5:1.5:1", "--t-end", "0.5", "--workers", "1"]
 
@@ -341,11 +343,7 @@ BIG_BASIN = ["basin", "--phi0", "0:2pi:90", "--dphi0", "0:3:90", "--t-end", "20"
 def test_a_signal_ends_basin_and_its_workers(signum, status, word):
     process = start(*BIG_BASIN)
     try:
-        parent = psutil.Process(process.pid)
-        deadline = time.monotonic() + 30
-        while len(children := parent.children(recursive=True)) < 2:        # the workers have started
-            assert time.monotonic() < deadline and process.poll() is None
-            time.sleep(0.1)
+        children = started_workers(process)
         time.sleep(1.0)
         process.send_signal(signum)
         out, err = process.communicate(timeout=30)
